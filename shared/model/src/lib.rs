@@ -1,0 +1,21 @@
+//! Data types every trafficmesh process shares: the native map file format, the
+//! NPC vehicle config, the spawn config (the seed's `traffic_spawn.json`), the
+//! vehicle catalogue and the enums of the NPC pipeline.
+//!
+//! This crate holds plain data and its validation. It does no I/O beyond
+//! (de)serialising strings, reads no clock and knows nothing of Zenoh.
+
+pub mod catalog;
+pub mod enums;
+pub mod map;
+pub mod spawn_config;
+pub mod vehicle_config;
+
+pub use catalog::{VehicleKind, builtin_kind};
+pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};
+pub use map::{
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, MapProblem,
+    SimulatorDef, ZebraConfigDef,
+};
+pub use spawn_config::{BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig};
+pub use vehicle_config::{NpcVehicleConfig, SpeedLimitSource};

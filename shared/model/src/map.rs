@@ -1,0 +1,476 @@
+//! The native map file (`*.map.json`): lanes, light groups, crosswalk areas,
+//! zebra-crossing whitelists and the traffic simulators of the scene.
+//!
+//! The README documents this format field by field. [`MapFile::validate`] runs the
+//! seed's start-up checklist and reports every problem with the element's name.
+
+use std::collections::{HashMap, HashSet};
+use std::fmt;
+
+use serde::{Deserialize, Deserializer, Serialize};
+
+use crate::catalog::builtin_kind;
+use crate::enums::TurnDirection;
+
+/// A point in the map frame (x east, y north, z up), metres. Written as `[x, y]` or `[x, y, z]`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Default)]
+pub struct Point(pub [f64; 3]);
+
+impl<'de> Deserialize<'de> for Point {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v = Vec::<f64>::deserialize(d)?;
+        match v.as_slice() {
+            [x, y] => Ok(Point([*x, *y, 0.0])),
+            [x, y, z] => Ok(Point([*x, *y, *z])),
+            _ => Err(serde::de::Error::custom(format!(
+                "a point is [x, y] or [x, y, z], got {} numbers",
+                v.len()
+            ))),
+        }
+    }
+}
+
+impl Point {
+    pub fn new(x: f64, y: f64) -> Self {
+        Point([x, y, 0.0])
+    }
+    pub fn is_finite(&self) -> bool {
+        self.0.iter().all(|c| c.is_finite())
+    }
+}
+
+fn default_width() -> f64 {
+    3.5
+}
+fn default_speed_limit() -> f64 {
+    13.89
+}
+
+/// One directed lane: a centreline polyline and its links.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LaneDef {
+    /// Unique (case-insensitively) name.
+    pub name: String,
+    /// Centreline, at least two points, in driving order.
+    pub waypoints: Vec<Point>,
+    #[serde(default = "default_width")]
+    pub width: f64,
+    /// m/s.
+    #[serde(default = "default_speed_limit")]
+    pub speed_limit: f64,
+    #[serde(default)]
+    pub next: Vec<String>,
+    /// Optional: derived from every lane's `next`; when given it must agree.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub prev: Vec<String>,
+    #[serde(default)]
+    pub intersection: bool,
+    #[serde(default)]
+    pub turn_direction: TurnDirection,
+    /// Two points across the lane where vehicles stop; usually near the lane's end.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stop_line: Option<[Point; 2]>,
+    /// Light group that controls this lane's stop line.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub traffic_light: Option<String>,
+    /// Lanes this lane must yield to (the non-priority side's list).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub right_of_way: Vec<String>,
+}
+
+/// A fixed-time program: green, then yellow, then red, repeating; `offset`
+/// shifts the cycle start (seconds of simulation time at which green begins).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightProgram {
+    pub green: f64,
+    pub yellow: f64,
+    pub red: f64,
+    #[serde(default)]
+    pub offset: f64,
+}
+
+impl LightProgram {
+    pub fn cycle(&self) -> f64 {
+        self.green + self.yellow + self.red
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LightGroupDef {
+    pub name: String,
+    pub program: LightProgram,
+}
+
+/// The area a crosswalk covers on the ground.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "shape", rename_all = "lowercase", deny_unknown_fields)]
+pub enum CrosswalkArea {
+    /// Oriented box: centre, half extents along its own x and y, heading in degrees.
+    Box {
+        center: Point,
+        half_extents: [f64; 2],
+        #[serde(default)]
+        yaw_deg: f64,
+    },
+    Polygon { points: Vec<Point> },
+}
+
+/// Where vehicles stop for an occupied crosswalk. `heading_deg`, when given, is the
+/// direction of the traffic this stop point is for: vehicles heading more than 90°
+/// away from it ignore it (the seed's cone test alone also catches vehicles leaving
+/// the crossing on the other side of the road).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopPointDef {
+    pub position: Point,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heading_deg: Option<f64>,
+}
+
+fn default_detection() -> f64 {
+    40.0
+}
+fn default_angle() -> f64 {
+    80.0
+}
+fn default_buffer() -> f64 {
+    1.5
+}
+
+/// A ZebraCrossingArea.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CrosswalkDef {
+    pub name: String,
+    pub area: CrosswalkArea,
+    /// Defaults to the area's centre when empty (the seed: "defaults to the area's own position").
+    #[serde(default)]
+    pub stop_points: Vec<StopPointDef>,
+    #[serde(default = "default_detection")]
+    pub max_detection_distance: f64,
+    /// Half-angle of the detection cone, degrees.
+    #[serde(default = "default_angle")]
+    pub forward_angle_tolerance_deg: f64,
+    #[serde(default = "default_buffer")]
+    pub stop_buffer: f64,
+    #[serde(default)]
+    pub enable_debug_logs: bool,
+    /// Name of the ZebraCrossingConfig (whitelist) this area belongs to.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub config: Option<String>,
+}
+
+/// A ZebraCrossingConfig: the whitelist shared by its child areas.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+pub struct ZebraConfigDef {
+    pub name: String,
+    #[serde(default)]
+    pub allowed_prefabs: Vec<String>,
+    #[serde(default)]
+    pub allowed_root_name_substrings: Vec<String>,
+}
+
+fn yes() -> bool {
+    true
+}
+fn one() -> u32 {
+    1
+}
+
+/// A traffic simulator of the scene (RandomTrafficSimulator or RouteTrafficSimulator).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase", deny_unknown_fields)]
+pub enum SimulatorDef {
+    Random {
+        lanes: Vec<String>,
+        prefabs: Vec<String>,
+        /// 0 = unlimited.
+        #[serde(default)]
+        maximum_spawns: u32,
+        #[serde(default = "yes")]
+        enabled: bool,
+        /// Spawn points drawn per tick (AWSIM draws one). Large maps need more
+        /// to fill up in reasonable time.
+        #[serde(default = "one")]
+        spawn_attempts_per_tick: u32,
+    },
+    Route {
+        route: Vec<String>,
+        prefabs: Vec<String>,
+        #[serde(default)]
+        maximum_spawns: u32,
+        #[serde(default = "yes")]
+        enabled: bool,
+    },
+}
+
+impl SimulatorDef {
+    pub fn lanes(&self) -> &[String] {
+        match self {
+            SimulatorDef::Random { lanes, .. } => lanes,
+            SimulatorDef::Route { route, .. } => route,
+        }
+    }
+    pub fn prefabs(&self) -> &[String] {
+        match self {
+            SimulatorDef::Random { prefabs, .. } | SimulatorDef::Route { prefabs, .. } => prefabs,
+        }
+    }
+}
+
+pub const MAP_FORMAT: &str = "trafficmesh-map/1";
+
+fn default_format() -> String {
+    MAP_FORMAT.to_string()
+}
+
+/// The whole map file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MapFile {
+    #[serde(default = "default_format")]
+    pub format: String,
+    #[serde(default)]
+    pub name: String,
+    pub lanes: Vec<LaneDef>,
+    #[serde(default)]
+    pub light_groups: Vec<LightGroupDef>,
+    #[serde(default)]
+    pub crosswalks: Vec<CrosswalkDef>,
+    #[serde(default)]
+    pub zebra_configs: Vec<ZebraConfigDef>,
+    #[serde(default)]
+    pub traffic_simulators: Vec<SimulatorDef>,
+}
+
+/// One thing wrong with a map: the element it is in, the field, and what is wrong.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct MapProblem {
+    /// e.g. `lane 'N_in_1'`, `light group 'J1'`, `map`.
+    pub element: String,
+    pub field: String,
+    pub message: String,
+}
+
+impl fmt::Display for MapProblem {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}: field '{}': {}", self.element, self.field, self.message)
+    }
+}
+
+struct Problems(Vec<MapProblem>);
+
+impl Problems {
+    fn add(&mut self, element: impl Into<String>, field: &str, message: impl Into<String>) {
+        self.0.push(MapProblem {
+            element: element.into(),
+            field: field.to_string(),
+            message: message.into(),
+        });
+    }
+}
+
+fn positive(v: f64) -> bool {
+    v.is_finite() && v > 0.0
+}
+
+impl MapFile {
+    /// The start-up checklist: every problem, each naming its element and field.
+    pub fn validate(&self) -> Result<(), Vec<MapProblem>> {
+        let mut p = Problems(Vec::new());
+        if self.format != MAP_FORMAT {
+            p.add("map", "format", format!("expected \"{MAP_FORMAT}\", got \"{}\"", self.format));
+        }
+        if self.lanes.is_empty() {
+            p.add("map", "lanes", "the map has no lanes (the seed's TrafficLanes is empty)");
+        }
+        let names = self.validate_lane_names(&mut p);
+        self.validate_lanes(&names, &mut p);
+        self.validate_lights(&mut p);
+        self.validate_crosswalks(&mut p);
+        self.validate_simulators(&names, &mut p);
+        if p.0.is_empty() { Ok(()) } else { Err(p.0) }
+    }
+
+    /// Lowercased lane name -> index; reports empty and duplicate names.
+    fn validate_lane_names(&self, p: &mut Problems) -> HashMap<String, usize> {
+        let mut names = HashMap::new();
+        for (i, lane) in self.lanes.iter().enumerate() {
+            if lane.name.trim().is_empty() {
+                p.add(format!("lanes[{i}]"), "name", "lane name is empty");
+            } else if names.insert(lane.name.to_lowercase(), i).is_some() {
+                p.add(
+                    format!("lane '{}'", lane.name),
+                    "name",
+                    "duplicate lane name (names are compared case-insensitively)",
+                );
+            }
+        }
+        if !self.lanes.is_empty() && !self.lanes.iter().any(|l| l.intersection) {
+            p.add("map", "lanes", "no lane has \"intersection\": true; at least one is required");
+        }
+        names
+    }
+
+    fn validate_lanes(&self, names: &HashMap<String, usize>, p: &mut Problems) {
+        let groups: HashSet<&str> = self.light_groups.iter().map(|g| g.name.as_str()).collect();
+        for lane in &self.lanes {
+            let el = format!("lane '{}'", lane.name);
+            if lane.waypoints.len() < 2 {
+                p.add(&el, "waypoints", format!("needs at least 2 points, has {}", lane.waypoints.len()));
+            }
+            if let Some(i) = lane.waypoints.iter().position(|w| !w.is_finite()) {
+                p.add(&el, "waypoints", format!("point {i} is not a finite number"));
+            } else if lane.waypoints.len() >= 2 {
+                let length: f64 = lane
+                    .waypoints
+                    .windows(2)
+                    .map(|w| (w[1].0[0] - w[0].0[0]).hypot(w[1].0[1] - w[0].0[1]))
+                    .sum();
+                if length < 0.1 {
+                    p.add(&el, "waypoints", format!("lane is only {length:.3} m long"));
+                }
+            }
+            if !positive(lane.width) {
+                p.add(&el, "width", format!("must be a positive number of metres, got {}", lane.width));
+            }
+            if !positive(lane.speed_limit) {
+                p.add(
+                    &el,
+                    "speed_limit",
+                    format!("must be a positive number of m/s, got {}", lane.speed_limit),
+                );
+            }
+            for (field, list) in [("next", &lane.next), ("prev", &lane.prev), ("right_of_way", &lane.right_of_way)] {
+                for other in list {
+                    if !names.contains_key(&other.to_lowercase()) {
+                        p.add(&el, field, format!("unknown lane '{other}'"));
+                    }
+                }
+            }
+            if !lane.prev.is_empty() {
+                for prev in &lane.prev {
+                    if let Some(&j) = names.get(&prev.to_lowercase())
+                        && !self.lanes[j].next.iter().any(|n| n.eq_ignore_ascii_case(&lane.name))
+                    {
+                        p.add(&el, "prev", format!("lists '{prev}', but '{prev}' does not list it in next"));
+                    }
+                }
+            }
+            if let Some(line) = &lane.stop_line
+                && line.iter().any(|pt| !pt.is_finite())
+            {
+                p.add(&el, "stop_line", "a point is not a finite number");
+            }
+            if let Some(g) = &lane.traffic_light
+                && !groups.contains(g.as_str())
+            {
+                p.add(&el, "traffic_light", format!("unknown light group '{g}'"));
+            }
+        }
+    }
+
+    fn validate_lights(&self, p: &mut Problems) {
+        let mut seen = HashSet::new();
+        for g in &self.light_groups {
+            let el = format!("light group '{}'", g.name);
+            if !seen.insert(g.name.as_str()) {
+                p.add(&el, "name", "duplicate light group name");
+            }
+            let pr = &g.program;
+            for (field, v) in [("program.green", pr.green), ("program.yellow", pr.yellow), ("program.red", pr.red)] {
+                if !(v.is_finite() && v >= 0.0) {
+                    p.add(&el, field, format!("must be a non-negative number of seconds, got {v}"));
+                }
+            }
+            if !pr.offset.is_finite() {
+                p.add(&el, "program.offset", "must be a finite number of seconds");
+            }
+            if !positive(pr.cycle()) {
+                p.add(&el, "program", "green + yellow + red must be positive");
+            }
+        }
+    }
+
+    fn validate_crosswalks(&self, p: &mut Problems) {
+        let configs: HashSet<&str> = self.zebra_configs.iter().map(|c| c.name.as_str()).collect();
+        let mut seen = HashSet::new();
+        for c in &self.crosswalks {
+            let el = format!("crosswalk '{}'", c.name);
+            if !seen.insert(c.name.as_str()) {
+                p.add(&el, "name", "duplicate crosswalk name");
+            }
+            match &c.area {
+                CrosswalkArea::Box { center, half_extents, yaw_deg } => {
+                    if !center.is_finite() || !yaw_deg.is_finite() {
+                        p.add(&el, "area", "centre and yaw_deg must be finite numbers");
+                    }
+                    if !half_extents.iter().all(|&h| positive(h)) {
+                        p.add(&el, "area.half_extents", "both half extents must be positive");
+                    }
+                }
+                CrosswalkArea::Polygon { points } => {
+                    if points.len() < 3 || points.iter().any(|pt| !pt.is_finite()) {
+                        p.add(&el, "area.points", "a polygon needs at least 3 finite points");
+                    }
+                }
+            }
+            if c.stop_points.iter().any(|s| !s.position.is_finite()) {
+                p.add(&el, "stop_points", "a stop point is not a finite number");
+            }
+            if !positive(c.max_detection_distance) {
+                p.add(&el, "max_detection_distance", "must be a positive number of metres");
+            }
+            if !(c.forward_angle_tolerance_deg.is_finite() && (0.0..=180.0).contains(&c.forward_angle_tolerance_deg)) {
+                p.add(&el, "forward_angle_tolerance_deg", "must be between 0 and 180 degrees");
+            }
+            if !(c.stop_buffer.is_finite() && c.stop_buffer >= 0.0) {
+                p.add(&el, "stop_buffer", "must be a non-negative number of metres");
+            }
+            if let Some(cfg) = &c.config
+                && !configs.contains(cfg.as_str())
+            {
+                p.add(&el, "config", format!("unknown zebra config '{cfg}'"));
+            }
+        }
+    }
+
+    fn validate_simulators(&self, names: &HashMap<String, usize>, p: &mut Problems) {
+        if self.traffic_simulators.is_empty() {
+            p.add(
+                "map",
+                "traffic_simulators",
+                "no traffic simulator is configured; at least one random or route simulator is required",
+            );
+        }
+        for (i, sim) in self.traffic_simulators.iter().enumerate() {
+            let el = format!("traffic_simulators[{i}]");
+            let field = if matches!(sim, SimulatorDef::Random { .. }) { "lanes" } else { "route" };
+            if sim.lanes().is_empty() {
+                p.add(&el, field, "is empty");
+            }
+            for lane in sim.lanes() {
+                if !names.contains_key(&lane.to_lowercase()) {
+                    p.add(&el, field, format!("unknown lane '{lane}'"));
+                } else if let Some(&j) = names.get(&lane.to_lowercase())
+                    && self.lanes[j].waypoints.len() < 2
+                {
+                    p.add(&el, field, format!("lane '{lane}' has no usable geometry"));
+                }
+            }
+            if sim.prefabs().is_empty() {
+                p.add(&el, "prefabs", "is empty");
+            }
+            for prefab in sim.prefabs() {
+                if builtin_kind(prefab).is_none() {
+                    let known: Vec<&str> = crate::catalog::builtin_names().collect();
+                    p.add(&el, "prefabs", format!("unknown vehicle kind '{prefab}' (known: {})", known.join(", ")));
+                }
+            }
+        }
+    }
+}

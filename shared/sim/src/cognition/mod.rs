@@ -1,0 +1,92 @@
+//! Cognition: what each vehicle perceives this tick. Runs in parallel, every
+//! vehicle reading the same immutable [`Snapshot`] of the previous tick, so the
+//! result depends neither on thread count nor on vehicle order.
+
+pub mod curve;
+pub mod deadlock;
+pub mod light;
+pub mod obstacles;
+pub mod path;
+pub mod right_of_way;
+
+use glam::DVec2;
+use trafficmesh_model::{LightColor, NpcVehicleConfig, YieldPhase};
+
+use crate::crosswalk::{Occupancy, try_get_blocked_stop};
+use crate::ego::Ego;
+use crate::lane_index::LaneIndex;
+use crate::lights::Lights;
+use crate::network::{LaneId, LaneNetwork};
+use crate::vehicle::{Vehicle, VehicleId, ZebraState};
+use right_of_way::{JunctionBuckets, RowInfo};
+
+/// Everything cognition reads: the world as it was at the end of the last tick.
+pub struct Snapshot<'a> {
+    pub net: &'a LaneNetwork,
+    pub vehicles: &'a [Vehicle],
+    pub index: &'a LaneIndex,
+    pub lights: &'a Lights,
+    pub occupancy: &'a Occupancy,
+    pub ego: Option<&'a Ego>,
+    pub config: &'a NpcVehicleConfig,
+    pub row: &'a [RowInfo],
+    pub junctions: &'a JunctionBuckets,
+}
+
+/// Cognition's output for one vehicle; written back before the Decision step.
+#[derive(Clone, Copy, Debug)]
+pub struct Perception {
+    pub distance_to_front: f64,
+    pub is_turning: bool,
+    pub light_lane: Option<LaneId>,
+    pub distance_to_light: f64,
+    pub passability: LightColor,
+    pub yield_phase: YieldPhase,
+    pub yield_point: DVec2,
+    pub yield_lane: Option<LaneId>,
+    pub dominating: Option<VehicleId>,
+    pub zebra: ZebraState,
+}
+
+/// Cognition for vehicle `i`.
+pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
+    let v = &snap.vehicles[i];
+    let light = light::check(snap, v);
+    let row = right_of_way::next_phase(snap, i);
+    let zebra = match try_get_blocked_stop(&snap.net.crosswalks, snap.occupancy, v.front, v.forward()) {
+        Some((distance, area)) => ZebraState {
+            is_blocked: true,
+            distance_to_stop: distance,
+            area: Some(area),
+            was_blocked: v.zebra.is_blocked,
+        },
+        None => ZebraState { was_blocked: v.zebra.is_blocked, ..ZebraState::default() },
+    };
+    Perception {
+        distance_to_front: obstacles::distance_to_front(snap, i),
+        is_turning: curve::is_turning(snap.net, v),
+        light_lane: light.lane,
+        distance_to_light: light.distance,
+        passability: light.color,
+        yield_phase: row.phase,
+        yield_point: row.point,
+        yield_lane: row.lane,
+        dominating: row.dominating,
+        zebra,
+    }
+}
+
+impl Perception {
+    pub fn apply(&self, v: &mut Vehicle) {
+        v.distance_to_front = self.distance_to_front;
+        v.is_turning = self.is_turning;
+        v.light_lane = self.light_lane;
+        v.distance_to_light = self.distance_to_light;
+        v.passability = self.passability;
+        v.yield_phase = self.yield_phase;
+        v.yield_point = self.yield_point;
+        v.yield_lane = self.yield_lane;
+        v.dominating = self.dominating;
+        v.zebra = self.zebra;
+    }
+}

@@ -1,0 +1,160 @@
+//! Front-obstacle distance: along-path metres from the front bumper to the
+//! nearest body ahead: a leader on the own path, a vehicle standing in a
+//! conflict zone of the path, the ego, or a full exit lane beyond a junction.
+
+use glam::DVec2;
+
+use super::Snapshot;
+use super::path::{lanes_ahead, needed_lookahead};
+use crate::ego::Ego;
+use crate::geometry::segments_intersect;
+use crate::network::LaneNetwork;
+use crate::vehicle::Vehicle;
+
+/// A stopped vehicle this close to the start of a junction's exit lane leaves no
+/// room to enter the junction behind it (metres beyond one's own length).
+const EXIT_ROOM_MARGIN: f64 = 2.0;
+/// Vehicles on the exit lane slower than this count as not making room.
+const EXIT_MOVING_SPEED: f64 = 3.0;
+
+pub fn distance_to_front(snap: &Snapshot, i: usize) -> f64 {
+    let v = &snap.vehicles[i];
+    let net = snap.net;
+    let range = needed_lookahead(v.speed, snap.config.deceleration);
+    let mut best = f64::INFINITY;
+    let on_intersection = net.lane(v.path[0]).intersection;
+    for (k, lane, offset) in lanes_ahead(net, v) {
+        if offset > range || offset > best {
+            break;
+        }
+        best = best.min(leader_on_lane(snap, i, lane, offset));
+        best = best.min(conflicting_bodies(snap, i, lane, offset, range, best));
+        if k >= 1 && !on_intersection && net.lane(lane).intersection && !exit_has_room(snap, v, k) {
+            best = best.min(offset.max(0.0));
+        }
+    }
+    if let Some(ego) = snap.ego {
+        best = best.min(ego_distance(net, v, ego, range));
+    }
+    best
+}
+
+/// The nearest vehicle ahead on `lane` whose body is ahead of ours.
+fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> f64 {
+    let v = &snap.vehicles[i];
+    for occ in snap.index.on_lane(lane) {
+        if occ.vehicle as usize == i {
+            continue;
+        }
+        let rear = offset + occ.rear;
+        let front = offset + occ.front;
+        if rear > -v.length && front > 0.0 {
+            return rear.max(0.0);
+        }
+    }
+    f64::INFINITY
+}
+
+/// Bodies standing in the conflict zones of `lane` ahead of us.
+fn conflicting_bodies(snap: &Snapshot, i: usize, lane: u32, offset: f64, range: f64, best: f64) -> f64 {
+    let v = &snap.vehicles[i];
+    let mut nearest = best;
+    for c in &snap.net.lane(lane).conflicts {
+        let zone_start = offset + c.a0;
+        let zone_end = offset + c.a1;
+        if zone_end <= 0.0 || zone_start > range || zone_start >= nearest || v.path.contains(&c.other) {
+            continue;
+        }
+        if !c.parallel && zone_start <= 0.0 {
+            // Already inside a crossing: committed; the crossing vehicle waits for us.
+            continue;
+        }
+        for occ in snap.index.on_lane(c.other) {
+            if occ.vehicle as usize == i || occ.front < c.b0 || occ.rear > c.b1 {
+                continue;
+            }
+            let d = if c.parallel {
+                // Merge or diverge: where the other's rear lies along our lane.
+                offset + c.a0 + (occ.rear - c.b0).max(0.0)
+            } else {
+                zone_start
+            };
+            if d > 0.0 && d < nearest {
+                nearest = d;
+            }
+        }
+    }
+    nearest
+}
+
+/// "Don't block the box": is there room on the lane after the junction lane path[k]?
+fn exit_has_room(snap: &Snapshot, v: &Vehicle, k: usize) -> bool {
+    let Some(&exit) = v.path.get(k + 1) else { return true };
+    match snap.index.on_lane(exit).first() {
+        Some(occ) => {
+            occ.rear >= v.length + EXIT_ROOM_MARGIN
+                || snap.vehicles[occ.vehicle as usize].speed >= EXIT_MOVING_SPEED
+        }
+        None => true,
+    }
+}
+
+/// Along-path distance to the ego's box where it enters our corridor (our width).
+fn ego_distance(net: &LaneNetwork, v: &Vehicle, ego: &Ego, range: f64) -> f64 {
+    if ego.center().distance(v.front) > range + ego.radius() + v.width {
+        return f64::INFINITY;
+    }
+    let corners = ego.corners();
+    let half_width = v.width * 0.5;
+    let mut travelled = 0.0;
+    let mut offset = -v.s;
+    for &lane in &v.path {
+        let line = &net.lane(lane).line;
+        for seg in 0..line.points.len() - 1 {
+            let (s0, s1) = (offset + line.cum[seg], offset + line.cum[seg + 1]);
+            if s1 <= 0.0 {
+                continue;
+            }
+            if s0.max(0.0) > range {
+                return f64::INFINITY;
+            }
+            let a = if s0 < 0.0 { v.front } else { line.points[seg] };
+            let b = line.points[seg + 1];
+            if let Some(t) = first_hit(a, b, &corners, ego.center(), half_width) {
+                return travelled + t;
+            }
+            travelled += a.distance(b);
+        }
+        offset += line.length();
+    }
+    f64::INFINITY
+}
+
+/// Distance along a->b to the first point where the box enters the corridor.
+fn first_hit(a: DVec2, b: DVec2, corners: &[DVec2; 4], center: DVec2, half_width: f64) -> Option<f64> {
+    let len = a.distance(b);
+    if len < 1e-9 {
+        return None;
+    }
+    let dir = (b - a) / len;
+    let mut hit: Option<f64> = None;
+    let mut take = |t: f64| hit = Some(hit.map_or(t, |h: f64| h.min(t)));
+    for p in corners.iter().chain(std::iter::once(&center)) {
+        let rel = *p - a;
+        let t = rel.dot(dir);
+        if (0.0..=len).contains(&t) && rel.perp_dot(dir).abs() <= half_width {
+            take(t);
+        }
+    }
+    for e in 0..4 {
+        let (c, d) = (corners[e], corners[(e + 1) % 4]);
+        if segments_intersect(a, b, c, d) {
+            let n = (d - c).perp();
+            let denom = dir.dot(n);
+            if denom.abs() > 1e-12 {
+                take(((c - a).dot(n) / denom).clamp(0.0, len));
+            }
+        }
+    }
+    hit
+}

@@ -1,0 +1,118 @@
+//! Lane following: advancing along followingLanes and extending it with branch choices.
+
+use glam::DVec2;
+
+use crate::branching::{BranchChoice, BranchPolicy};
+use crate::network::{LaneId, LaneNetwork};
+use crate::vehicle::Vehicle;
+
+/// Lanes of the vehicle's path with the along-path distance from its front bumper
+/// to each lane's start (negative for the lane it is on).
+pub fn lanes_ahead<'a>(net: &'a LaneNetwork, v: &'a Vehicle) -> impl Iterator<Item = (usize, LaneId, f64)> + 'a {
+    let mut offset = -v.s;
+    v.path.iter().enumerate().map(move |(k, &lane)| {
+        let here = offset;
+        offset += net.lane(lane).length();
+        (k, lane, here)
+    })
+}
+
+/// Along-path distance from the front bumper to the end of the known path.
+pub fn known_distance_ahead(net: &LaneNetwork, v: &Vehicle) -> f64 {
+    v.path.iter().map(|&l| net.lane(l).length()).sum::<f64>() - v.s
+}
+
+/// Point (and height) at along-path offset `ds` from the front bumper; negative
+/// offsets reach back into the previous lane.
+pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
+    let mut s = v.s + ds;
+    if s < 0.0 {
+        return match v.prev_lane {
+            Some(p) => {
+                let line = &net.lane(p).line;
+                line.point_at(line.length() + s)
+            }
+            None => net.lane(v.path[0]).line.point_at(s),
+        };
+    }
+    for (k, &lane) in v.path.iter().enumerate() {
+        let line = &net.lane(lane).line;
+        if s <= line.length() || k + 1 == v.path.len() {
+            return line.point_at(s);
+        }
+        s -= line.length();
+    }
+    unreachable!("a vehicle's path is never empty")
+}
+
+/// The path cannot be extended: its last lane has no successor.
+#[derive(Debug)]
+pub struct DeadEnd;
+
+/// Appends one lane to the path: the route's next lane, else a branch choice.
+/// Returns the choice made, if it was a choice between branches.
+pub fn extend_path(net: &LaneNetwork, policy: &BranchPolicy, v: &mut Vehicle) -> Result<Option<BranchChoice>, DeadEnd> {
+    if let Some(route) = &mut v.route
+        && route.index + 1 < route.lanes.len()
+    {
+        route.index += 1;
+        v.path.push(route.lanes[route.index]);
+        return Ok(None);
+    }
+    let last = *v.path.last().expect("path is never empty");
+    let options = &net.lane(last).next;
+    match options.len() {
+        0 => Err(DeadEnd),
+        1 => {
+            v.path.push(options[0]);
+            Ok(None)
+        }
+        _ => {
+            let choice = policy.choose(last, options, &mut v.rng);
+            v.path.push(choice.to);
+            Ok(Some(choice))
+        }
+    }
+}
+
+/// How far ahead the path must be known: beyond the slow-down distance nothing
+/// changes the decision, so look that far and a margin more.
+pub fn needed_lookahead(speed: f64, deceleration: f64) -> f64 {
+    (speed * speed / (2.0 * deceleration) + 4.5 + 6.0 + 10.0).max(60.0)
+}
+
+/// Moves the vehicle onto the next lane when its front passes the end of the
+/// current one, and keeps at least three lanes (and the look-ahead) known.
+/// Flags the vehicle for despawn at the end of a dead-end lane.
+pub fn advance_and_extend(
+    net: &LaneNetwork,
+    policy: &BranchPolicy,
+    v: &mut Vehicle,
+    deceleration: f64,
+    decisions: &mut Vec<BranchChoice>,
+) {
+    loop {
+        let len = net.lane(v.path[0]).length();
+        if v.s <= len {
+            break;
+        }
+        if v.path.len() < 2 {
+            match extend_path(net, policy, v) {
+                Ok(choice) => decisions.extend(choice),
+                Err(DeadEnd) => {
+                    v.should_despawn = true;
+                    return;
+                }
+            }
+        }
+        v.s -= len;
+        v.prev_lane = Some(v.path.remove(0));
+    }
+    let lookahead = needed_lookahead(v.speed, deceleration);
+    while v.path.len() < 3 || known_distance_ahead(net, v) < lookahead {
+        match extend_path(net, policy, v) {
+            Ok(choice) => decisions.extend(choice),
+            Err(DeadEnd) => break,
+        }
+    }
+}

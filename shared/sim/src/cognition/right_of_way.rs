@@ -1,0 +1,400 @@
+//! Intersection right of way: the yield-phase state machine of the reference
+//! (section 3.6), evaluated on the previous tick's snapshot.
+//!
+//! Deliberate choices (README, "Behaviour notes"): traffic drives on the right, so
+//! the "left-hand rule" phases yield to traffic on the right (the seed: "yielding
+//! to right-hand traffic"); the approach window is 18 m or 4 s of travel,
+//! whichever is longer; a vehicle with no stop line yields at the junction
+//! entrance rather than at its lane's first waypoint; headings are compared wrapped.
+
+use glam::DVec2;
+use trafficmesh_model::{LightColor, YieldPhase};
+
+use super::Snapshot;
+use super::path::lanes_ahead;
+use crate::geometry::{angle_between, cross};
+use crate::network::{LaneId, LaneNetwork};
+use crate::vehicle::{Vehicle, VehicleId};
+
+const MIN_DISTANCE_TO_INTERSECTION: f64 = 18.0;
+const APPROACH_TIME: f64 = 4.0;
+const INTERACTION_RADIUS: f64 = 70.0;
+const SAME_SIDE_RADIUS: f64 = 3.0;
+const PARALLEL_BAND_DEG: f64 = 35.0;
+const OVERRUN_TO_START: f64 = -0.5;
+const OVERRUN_TO_CANCEL: f64 = -1.0;
+const EGO_LATERAL: f64 = 2.0;
+const EGO_ANGLE_DEG: f64 = 30.0;
+
+/// Per-vehicle facts the predicates read about *other* vehicles, computed once per tick.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RowInfo {
+    /// (index in path, lane) of the first intersection lane on the path.
+    pub first_int: Option<(usize, LaneId)>,
+    /// Along-path metres from the front bumper to that lane's start (negative once on it).
+    pub distance_to_intersection: f64,
+    /// Within the approach window and not queued behind another vehicle.
+    pub considered: bool,
+    pub on_intersection: bool,
+    /// yieldingPriorityAtTrafficLight: before the junction at a red light.
+    pub waiting_at_red: bool,
+}
+
+impl RowInfo {
+    pub fn of(net: &LaneNetwork, v: &Vehicle) -> Self {
+        let first_int = lanes_ahead(net, v).find(|(_, lane, _)| net.lane(*lane).intersection);
+        let on_intersection = net.lane(v.path[0]).intersection;
+        let Some((k, lane, offset)) = first_int else {
+            return RowInfo { on_intersection, ..RowInfo::default() };
+        };
+        let window = MIN_DISTANCE_TO_INTERSECTION.max(v.speed * APPROACH_TIME);
+        let obstructed = offset > v.distance_to_front;
+        RowInfo {
+            first_int: Some((k, lane)),
+            distance_to_intersection: offset,
+            considered: offset <= window && !obstructed,
+            on_intersection,
+            waiting_at_red: !on_intersection && v.passability == LightColor::Red,
+        }
+    }
+
+    fn junction(&self, net: &LaneNetwork) -> Option<u32> {
+        self.first_int.and_then(|(_, lane)| net.lane(lane).junction)
+    }
+}
+
+/// Considered vehicles of each junction, in vehicle order.
+#[derive(Clone, Debug, Default)]
+pub struct JunctionBuckets {
+    buckets: Vec<Vec<u32>>,
+}
+
+impl JunctionBuckets {
+    pub fn build(net: &LaneNetwork, infos: &[RowInfo]) -> Self {
+        let mut buckets = vec![Vec::new(); net.junction_count as usize];
+        for (i, info) in infos.iter().enumerate() {
+            if info.considered
+                && let Some(j) = info.junction(net)
+            {
+                buckets[j as usize].push(i as u32);
+            }
+        }
+        JunctionBuckets { buckets }
+    }
+
+    fn of(&self, junction: Option<u32>) -> &[u32] {
+        junction.map_or(&[], |j| &self.buckets[j as usize])
+    }
+}
+
+/// The new phase and what goes with it.
+pub struct RowDecision {
+    pub phase: YieldPhase,
+    pub point: DVec2,
+    pub lane: Option<LaneId>,
+    pub dominating: Option<VehicleId>,
+}
+
+struct Ctx<'a, 'b> {
+    snap: &'a Snapshot<'b>,
+    i: usize,
+    v: &'a Vehicle,
+    info: RowInfo,
+    candidates: &'a [u32],
+}
+
+/// A predicate's hit: the vehicle yielded to and where to stop.
+type Hit = Option<(Option<VehicleId>, DVec2)>;
+
+pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
+    let v = &snap.vehicles[i];
+    let info = snap.row[i];
+    let candidates = snap.junctions.of(info.junction(snap.net));
+    let ctx = Ctx { snap, i, v, info, candidates };
+    let keep = |phase, hit: Hit| match hit {
+        Some((dominating, point)) => RowDecision { phase, point, lane: v.yield_lane, dominating },
+        None => RowDecision { phase: YieldPhase::None, point: v.yield_point, lane: v.yield_lane, dominating: None },
+    };
+    let to = |phase, (dominating, point): (Option<VehicleId>, DVec2)| RowDecision {
+        phase,
+        point,
+        lane: v.yield_lane,
+        dominating,
+    };
+    let stay = |phase| RowDecision { phase, point: v.yield_point, lane: v.yield_lane, dominating: None };
+    let on = info.on_intersection;
+    match v.yield_phase {
+        YieldPhase::None => {
+            let yield_lane = info
+                .first_int
+                .map(|(_, l)| l)
+                .filter(|&l| !snap.net.lane(l).right_of_way.is_empty());
+            if info.considered && !on {
+                let (_, lane) = info.first_int.expect("considered implies an intersection ahead");
+                RowDecision {
+                    phase: YieldPhase::EnteringIntersection,
+                    point: snap.net.lane(lane).stop_point(0),
+                    lane: yield_lane,
+                    dominating: None,
+                }
+            } else if on {
+                RowDecision { phase: YieldPhase::AtIntersection, point: v.yield_point, lane: yield_lane, dominating: None }
+            } else {
+                RowDecision { phase: YieldPhase::None, point: v.yield_point, lane: None, dominating: None }
+            }
+        }
+        YieldPhase::EnteringIntersection => {
+            if on {
+                stay(YieldPhase::AtIntersection)
+            } else if let Some(hit) = ctx.should_yield_due_to_lanes(false) {
+                to(YieldPhase::LanesRulesEnteringIntersection, hit)
+            } else if let Some(hit) = ctx.intersection_busy() {
+                to(YieldPhase::IntersectionBlocked, hit)
+            } else if let Some(hit) = ctx.right_hand_rule_entering() {
+                to(YieldPhase::LeftHandRuleEnteringIntersection, hit)
+            } else {
+                stay(YieldPhase::EnteringIntersection)
+            }
+        }
+        YieldPhase::AtIntersection => {
+            if !on {
+                stay(YieldPhase::None)
+            } else if let Some(hit) = ctx.should_yield_due_to_lanes(true) {
+                to(YieldPhase::LanesRulesAtIntersection, hit)
+            } else if let Some(hit) = ctx.some_vehicle_forcing_priority() {
+                to(YieldPhase::ForcingPriority, hit)
+            } else if let Some(hit) = ctx.right_hand_rule_on_intersection() {
+                to(YieldPhase::LeftHandRuleAtIntersection, hit)
+            } else {
+                stay(YieldPhase::AtIntersection)
+            }
+        }
+        YieldPhase::IntersectionBlocked => keep(YieldPhase::IntersectionBlocked, ctx.intersection_busy()),
+        YieldPhase::LanesRulesEnteringIntersection => {
+            let hit = if on { None } else { ctx.should_yield_due_to_lanes(false) };
+            keep(YieldPhase::LanesRulesEnteringIntersection, hit)
+        }
+        YieldPhase::LanesRulesAtIntersection => {
+            keep(YieldPhase::LanesRulesAtIntersection, ctx.should_yield_due_to_lanes(true))
+        }
+        YieldPhase::LeftHandRuleEnteringIntersection => {
+            let hit = if on { None } else { ctx.right_hand_rule_entering() };
+            keep(YieldPhase::LeftHandRuleEnteringIntersection, hit)
+        }
+        YieldPhase::LeftHandRuleAtIntersection => {
+            keep(YieldPhase::LeftHandRuleAtIntersection, ctx.right_hand_rule_on_intersection())
+        }
+        YieldPhase::ForcingPriority => keep(YieldPhase::ForcingPriority, ctx.some_vehicle_forcing_priority()),
+    }
+}
+
+impl Ctx<'_, '_> {
+    fn net(&self) -> &LaneNetwork {
+        self.snap.net
+    }
+
+    /// Other considered vehicles of this junction within the interaction radius.
+    fn others(&self) -> impl Iterator<Item = (&Vehicle, RowInfo)> + '_ {
+        self.candidates.iter().filter_map(move |&j| {
+            let j = j as usize;
+            let o = &self.snap.vehicles[j];
+            let near = o.front.distance_squared(self.v.front) < INTERACTION_RADIUS * INTERACTION_RADIUS;
+            (j != self.i && near).then(|| (o, self.snap.row[j]))
+        })
+    }
+
+    fn first_int_lane(info: &RowInfo) -> Option<LaneId> {
+        info.first_int.map(|(_, l)| l)
+    }
+
+    fn same_side(&self, other: &RowInfo) -> bool {
+        match (Self::first_int_lane(&self.info), Self::first_int_lane(other)) {
+            (Some(a), Some(b)) => {
+                let pa = self.net().lane(a).line.points[0];
+                let pb = self.net().lane(b).line.points[0];
+                pa.distance(pb) < SAME_SIDE_RADIUS
+            }
+            _ => false,
+        }
+    }
+
+    /// Right-hand traffic: priority to the vehicle on the right.
+    fn on_right(&self, o: &Vehicle) -> bool {
+        let f = self.v.forward();
+        cross(f, o.front - self.v.front) < 0.0 || cross(f, o.back - self.v.front) < 0.0
+    }
+
+    /// B must yield to A: B's first junction lane lists A's among its right-of-way lanes.
+    fn has_priority(&self, a: &RowInfo, b: &RowInfo) -> bool {
+        match (Self::first_int_lane(a), Self::first_int_lane(b)) {
+            (Some(la), Some(lb)) => self.net().lane(lb).right_of_way.contains(&la),
+            _ => false,
+        }
+    }
+
+    fn parallelish(&self, o: &Vehicle) -> bool {
+        let d = angle_between(self.v.pose.yaw, o.pose.yaw).to_degrees();
+        !(PARALLEL_BAND_DEG..=180.0 - PARALLEL_BAND_DEG).contains(&d)
+    }
+
+    /// Do the two vehicles' paths through their first junction lanes still cross?
+    fn intersect_overall(&self, o: &Vehicle, oi: &RowInfo) -> bool {
+        let (Some((ka, a)), Some((kb, b))) = (self.info.first_int, oi.first_int) else {
+            return false;
+        };
+        if a == b {
+            return true;
+        }
+        self.net().lane(a).conflicts.iter().any(|c| {
+            c.other == b
+                && (ka > 0 || self.v.rear_s() < c.a1)
+                && (kb > 0 || o.rear_s() < c.b1)
+        })
+    }
+
+    /// Both on junction lanes and their remaining paths on them still cross.
+    fn intersect_now_front(&self, o: &Vehicle, oi: &RowInfo) -> bool {
+        if !self.info.on_intersection || !oi.on_intersection {
+            return false;
+        }
+        let (a, b) = (self.v.path[0], o.path[0]);
+        a != b
+            && self.net().lane(a).conflicts.iter().any(|c| {
+                c.other == b && self.v.s < c.a1 && o.rear_s() - self.v.width < c.b1
+            })
+    }
+
+    /// Where to stop before the junction: our stop line, else the junction entrance.
+    fn stop_before_junction(&self) -> DVec2 {
+        let current = self.net().lane(self.v.path[0]);
+        match (current.stop_center, self.info.first_int) {
+            (Some(c), _) => c,
+            (None, Some((_, lane))) => self.net().lane(lane).line.points[0],
+            (None, None) => self.v.front,
+        }
+    }
+
+    fn forced_through(&self) -> bool {
+        let j = self.info.first_int.and_then(|(_, l)| self.net().lane(l).junction);
+        j.is_some() && self.v.forced_through == j
+    }
+
+    fn right_hand_rule_entering(&self) -> Hit {
+        if self.forced_through() {
+            return None;
+        }
+        self.others()
+            .find(|(o, oi)| {
+                !o.yield_phase.is_yielding_before_intersection()
+                    && !oi.waiting_at_red
+                    && !self.same_side(oi)
+                    && self.on_right(o)
+                    && self.intersect_overall(o, oi)
+            })
+            .map(|(o, _)| (Some(o.id), self.stop_before_junction()))
+    }
+
+    fn right_hand_rule_on_intersection(&self) -> Hit {
+        self.others()
+            .find(|(o, oi)| {
+                oi.on_intersection
+                    && !o.yield_phase.is_yielding_due_to_rules()
+                    && !self.same_side(oi)
+                    && self.on_right(o)
+                    && !self.has_priority(oi, &self.info)
+                    && self.intersect_now_front(o, oi)
+            })
+            .map(|(o, _)| (Some(o.id), self.v.front))
+    }
+
+    fn intersection_busy(&self) -> Hit {
+        self.others()
+            .find(|(o, oi)| {
+                oi.on_intersection
+                    && !(o.yield_phase.is_yielding_due_to_rules() && self.parallelish(o))
+                    && !self.same_side(oi)
+                    && self.intersect_overall(o, oi)
+            })
+            .map(|(o, _)| (Some(o.id), self.stop_before_junction()))
+    }
+
+    /// A vehicle that should yield to us is crossing anyway (it was let through
+    /// to break a deadlock, or it ignored us): hold here until it has passed.
+    fn some_vehicle_forcing_priority(&self) -> Hit {
+        self.others()
+            .find(|(o, oi)| {
+                !o.yield_phase.is_yielding_due_to_rules()
+                    && self.has_priority(&self.info, oi)
+                    && if self.info.on_intersection && oi.on_intersection {
+                        self.intersect_now_front(o, oi)
+                    } else {
+                        self.intersect_overall(o, oi)
+                    }
+            })
+            .map(|(o, _)| (Some(o.id), self.v.front))
+    }
+
+    /// Lane rules: yield to vehicles (or the ego) on the lanes our junction lane yields to.
+    fn should_yield_due_to_lanes(&self, on_intersection: bool) -> Hit {
+        if !on_intersection && self.forced_through() {
+            return None;
+        }
+        let lane_id = self.v.yield_lane?;
+        let lane = self.net().lane(lane_id);
+        let stop = if on_intersection {
+            lane.stop_center.unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
+        } else {
+            lane.stop_center.unwrap_or(lane.line.points[0])
+        };
+        if self.v.yield_phase.is_yielding_due_to_rules() {
+            if self.v.signed_distance(self.v.yield_point) < OVERRUN_TO_CANCEL {
+                return None;
+            }
+        } else if self.v.signed_distance(stop) < OVERRUN_TO_START {
+            return None;
+        }
+        for &priority_lane in &lane.right_of_way {
+            let npc = self.others().find(|(o, oi)| {
+                !oi.waiting_at_red
+                    && (!on_intersection
+                        || (!o.yield_phase.is_yielding_due_to_rules()
+                            && o.yield_phase != YieldPhase::IntersectionBlocked))
+                    && self.dominates(o, oi, priority_lane)
+                    && self.intersect_overall(o, oi)
+            });
+            if let Some((o, _)) = npc {
+                return Some((Some(o.id), stop));
+            }
+            if let Some(ego) = self.snap.ego
+                && ego_on_lane(self.net(), priority_lane, ego.position(), ego.forward())
+            {
+                return Some((None, stop));
+            }
+        }
+        None
+    }
+
+    /// The other vehicle is on, or about to enter, `lane` as its first junction lane.
+    fn dominates(&self, o: &Vehicle, oi: &RowInfo, lane: LaneId) -> bool {
+        let next_is_junction = o.path.get(1).is_some_and(|&l| self.net().lane(l).intersection);
+        (oi.on_intersection || next_is_junction) && Self::first_int_lane(oi) == Some(lane)
+    }
+}
+
+/// The ego is on `lane`: within 2 m of one of its segments and within 30° of its direction.
+fn ego_on_lane(net: &LaneNetwork, lane: LaneId, position: DVec2, forward: DVec2) -> bool {
+    let line = &net.lane(lane).line;
+    (0..line.points.len() - 1).any(|i| {
+        let (a, b) = (line.points[i], line.points[i + 1]);
+        let ab = b - a;
+        let len2 = ab.length_squared();
+        if len2 < 1e-12 {
+            return false;
+        }
+        let t = (position - a).dot(ab) / len2;
+        let lateral = (position - (a + ab * t)).length();
+        (0.0..=1.0).contains(&t)
+            && lateral <= EGO_LATERAL
+            && ab.normalize().angle_to(forward).abs() < EGO_ANGLE_DEG.to_radians()
+    })
+}

@@ -1,0 +1,46 @@
+//! What happened during a tick, for telemetry, logs and the trip CSV.
+
+use crate::branching::BranchChoice;
+use crate::vehicle::VehicleId;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DespawnReason {
+    /// Drove off the end of a lane with no successor.
+    DeadEnd,
+    /// RemoveVehiclesInRadius.
+    Removed,
+    /// Restart disposed of it.
+    Restart,
+}
+
+impl DespawnReason {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            DespawnReason::DeadEnd => "dead_end",
+            DespawnReason::Removed => "removed",
+            DespawnReason::Restart => "restart",
+        }
+    }
+}
+
+/// One row of the trip CSV.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TripRecord {
+    pub id: VehicleId,
+    pub kind: String,
+    pub spawn_time: f64,
+    pub despawn_time: f64,
+    pub distance: f64,
+    pub stops: u32,
+    pub time_stopped: f64,
+    pub reason: DespawnReason,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SimEvent {
+    Spawned { id: VehicleId, kind: String, lane: u32, time: f64 },
+    Despawned(TripRecord),
+    ZebraStop { id: VehicleId, area: usize, distance: f64 },
+    ZebraClear { id: VehicleId, area: usize },
+    BranchDecision { id: VehicleId, choice: BranchChoice },
+}

@@ -1,0 +1,144 @@
+//! Plane geometry on polylines: arc length, interpolation, projection, intersection.
+
+use glam::DVec2;
+
+/// A polyline with cumulative arc length at each vertex.
+#[derive(Clone, Debug)]
+pub struct Polyline {
+    pub points: Vec<DVec2>,
+    /// Height of each point (the map's z), interpolated for poses.
+    pub heights: Vec<f64>,
+    /// cum[i] = arc length from points[0] to points[i].
+    pub cum: Vec<f64>,
+}
+
+impl Polyline {
+    pub fn new(points: Vec<DVec2>, heights: Vec<f64>) -> Self {
+        let mut cum = Vec::with_capacity(points.len());
+        let mut acc = 0.0;
+        for (i, p) in points.iter().enumerate() {
+            if i > 0 {
+                acc += p.distance(points[i - 1]);
+            }
+            cum.push(acc);
+        }
+        Polyline { points, heights, cum }
+    }
+
+    pub fn length(&self) -> f64 {
+        *self.cum.last().unwrap_or(&0.0)
+    }
+
+    /// Index i of the segment [i, i+1] containing arc length s (clamped to the ends).
+    pub fn segment_at(&self, s: f64) -> usize {
+        let last = self.points.len() - 2;
+        match self.cum.binary_search_by(|c| c.total_cmp(&s)) {
+            Ok(i) => i.min(last),
+            Err(i) => i.saturating_sub(1).min(last),
+        }
+    }
+
+    /// Unit direction of segment i.
+    pub fn direction(&self, i: usize) -> DVec2 {
+        (self.points[i + 1] - self.points[i]).normalize_or_zero()
+    }
+
+    /// Point and height at arc length s; beyond the ends the end segments are extended.
+    pub fn point_at(&self, s: f64) -> (DVec2, f64) {
+        let i = self.segment_at(s);
+        let seg = self.cum[i + 1] - self.cum[i];
+        let t = if seg > 0.0 { (s - self.cum[i]) / seg } else { 0.0 };
+        let p = self.points[i].lerp(self.points[i + 1], t);
+        let z = self.heights[i] + (self.heights[i + 1] - self.heights[i]) * t.clamp(0.0, 1.0);
+        (p, z)
+    }
+
+    /// Arc length of the point of the polyline closest to p.
+    pub fn project(&self, p: DVec2) -> f64 {
+        let mut best = (f64::INFINITY, 0.0);
+        for i in 0..self.points.len() - 1 {
+            let (a, b) = (self.points[i], self.points[i + 1]);
+            let ab = b - a;
+            let len2 = ab.length_squared();
+            let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let d = p.distance_squared(a + ab * t);
+            if d < best.0 {
+                best = (d, self.cum[i] + t * len2.sqrt());
+            }
+        }
+        best.1
+    }
+
+    /// Distance from p to the polyline.
+    pub fn distance_to(&self, p: DVec2) -> f64 {
+        let (q, _) = self.point_at(self.project(p));
+        q.distance(p)
+    }
+}
+
+/// 2D cross product (z of the 3D cross): positive when b is to the left of a.
+pub fn cross(a: DVec2, b: DVec2) -> f64 {
+    a.x * b.y - a.y * b.x
+}
+
+/// Inclusive segment intersection; parallel or collinear segments do not intersect.
+pub fn segments_intersect(a1: DVec2, b1: DVec2, a2: DVec2, b2: DVec2) -> bool {
+    let d1 = b1 - a1;
+    let d2 = b2 - a2;
+    let denom = cross(d1, d2);
+    if denom.abs() < 1e-12 {
+        return false;
+    }
+    let t = cross(a2 - a1, d2) / denom;
+    let u = cross(a2 - a1, d1) / denom;
+    (0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)
+}
+
+/// Smallest absolute difference between two headings, radians in [0, π].
+pub fn angle_between(a: f64, b: f64) -> f64 {
+    let d = (a - b).rem_euclid(std::f64::consts::TAU);
+    d.min(std::f64::consts::TAU - d)
+}
+
+/// Corners of an oriented box centred at c with heading yaw and half extents (hl, hw).
+pub fn box_corners(c: DVec2, yaw: f64, hl: f64, hw: f64) -> [DVec2; 4] {
+    let f = DVec2::from_angle(yaw) * hl;
+    let l = DVec2::from_angle(yaw).perp() * hw;
+    [c + f + l, c + f - l, c - f - l, c - f + l]
+}
+
+/// Separating-axis overlap test of two convex quadrilaterals.
+pub fn boxes_overlap(a: &[DVec2; 4], b: &[DVec2; 4]) -> bool {
+    for poly in [a, b] {
+        for i in 0..4 {
+            let edge = poly[(i + 1) % 4] - poly[i];
+            let axis = edge.perp();
+            let (amin, amax) = extent(a, axis);
+            let (bmin, bmax) = extent(b, axis);
+            if amax <= bmin || bmax <= amin {
+                return false;
+            }
+        }
+    }
+    true
+}
+
+fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
+    poly.iter()
+        .map(|p| p.dot(axis))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)))
+}
+
+/// Even-odd point-in-polygon test.
+pub fn point_in_polygon(p: DVec2, poly: &[DVec2]) -> bool {
+    let mut inside = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}

@@ -1,0 +1,89 @@
+//! Traffic-light programs and the state NPCs read from them.
+
+use trafficmesh_model::{LightColor, LightProgram};
+
+/// State of one light group at some time: colour and when it next changes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightState {
+    pub color: LightColor,
+    /// Simulation time of the next change (infinite when forced).
+    pub next_change: f64,
+}
+
+/// Evaluates a fixed-time program: green from `offset`, then yellow, then red.
+pub fn program_state(program: &LightProgram, t: f64) -> LightState {
+    let cycle = program.cycle();
+    let pos = (t - program.offset).rem_euclid(cycle);
+    let start = t - pos;
+    let (color, end) = if pos < program.green {
+        (LightColor::Green, program.green)
+    } else if pos < program.green + program.yellow {
+        (LightColor::Yellow, program.green + program.yellow)
+    } else {
+        (LightColor::Red, cycle)
+    };
+    LightState { color, next_change: start + end }
+}
+
+/// What a light group is doing now: running its program or forced to a colour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightControl {
+    Program(LightProgram),
+    Forced(LightColor),
+}
+
+/// The states of every light group, refreshed once per tick.
+#[derive(Clone, Debug)]
+pub struct Lights {
+    controls: Vec<LightControl>,
+    states: Vec<LightState>,
+}
+
+impl Lights {
+    pub fn new(programs: impl IntoIterator<Item = LightProgram>) -> Self {
+        let controls: Vec<LightControl> = programs.into_iter().map(LightControl::Program).collect();
+        let states = vec![LightState { color: LightColor::Green, next_change: 0.0 }; controls.len()];
+        let mut lights = Lights { controls, states };
+        lights.update(0.0);
+        lights
+    }
+
+    pub fn update(&mut self, t: f64) {
+        for (state, control) in self.states.iter_mut().zip(&self.controls) {
+            *state = match control {
+                LightControl::Program(p) => program_state(p, t),
+                LightControl::Forced(color) => LightState { color: *color, next_change: f64::INFINITY },
+            };
+        }
+    }
+
+    pub fn set_control(&mut self, group: usize, control: LightControl, t: f64) {
+        self.controls[group] = control;
+        self.update(t);
+    }
+
+    pub fn state(&self, group: usize) -> LightState {
+        self.states[group]
+    }
+
+    pub fn states(&self) -> &[LightState] {
+        &self.states
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn program_cycles_green_yellow_red_from_offset() {
+        let p = LightProgram { green: 10.0, yellow: 3.0, red: 7.0, offset: 5.0 };
+        assert_eq!(program_state(&p, 5.0).color, LightColor::Green);
+        assert_eq!(program_state(&p, 14.9).color, LightColor::Green);
+        assert_eq!(program_state(&p, 15.0).color, LightColor::Yellow);
+        assert_eq!(program_state(&p, 18.0).color, LightColor::Red);
+        assert_eq!(program_state(&p, 18.0).next_change, 25.0);
+        assert_eq!(program_state(&p, 4.0).color, LightColor::Red);
+        assert_eq!(program_state(&p, 25.0).color, LightColor::Green);
+    }
+}

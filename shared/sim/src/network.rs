@@ -1,0 +1,289 @@
+//! The lane network compiled from a validated [`MapFile`]: lane ids instead of
+//! names, arc lengths, stop-line positions, junctions and conflict zones.
+
+use glam::DVec2;
+use rustc_hash::FxHashMap;
+use trafficmesh_model::map::{CrosswalkArea, MapFile, SimulatorDef};
+use trafficmesh_model::{LightProgram, MapProblem, TurnDirection, VehicleKind, ZebraConfigDef, builtin_kind};
+
+use crate::conflicts::{Conflict, find_conflicts_and_junctions};
+use crate::geometry::{Polyline, box_corners};
+
+pub type LaneId = u32;
+
+#[derive(Clone, Debug)]
+pub struct Lane {
+    pub name: String,
+    pub line: Polyline,
+    pub width: f64,
+    pub speed_limit: f64,
+    pub next: Vec<LaneId>,
+    pub prev: Vec<LaneId>,
+    pub intersection: bool,
+    pub turn: TurnDirection,
+    /// Arc length of the stop line along this lane.
+    pub stop_s: Option<f64>,
+    /// Centre of the stop line, if the lane has one.
+    pub stop_center: Option<DVec2>,
+    pub light: Option<usize>,
+    pub right_of_way: Vec<LaneId>,
+    /// Junction this intersection lane belongs to.
+    pub junction: Option<u32>,
+    /// Where other lanes of the junction come close enough for two vehicles to touch.
+    pub conflicts: Vec<Conflict>,
+}
+
+impl Lane {
+    pub fn length(&self) -> f64 {
+        self.line.length()
+    }
+
+    /// The reference's `stopPoint(i)`: the stop line's centre, else waypoint i.
+    pub fn stop_point(&self, i: usize) -> DVec2 {
+        self.stop_center
+            .unwrap_or(self.line.points[i.min(self.line.points.len() - 1)])
+    }
+
+    /// Stop position of a signalised lane: its stop line, else its end.
+    pub fn light_stop_s(&self) -> f64 {
+        self.stop_s.unwrap_or(self.length())
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct LightGroup {
+    pub name: String,
+    pub program: LightProgram,
+}
+
+/// One stop point of a crosswalk, with the optional direction of its traffic.
+#[derive(Clone, Copy, Debug)]
+pub struct CrosswalkStop {
+    pub position: DVec2,
+    pub heading: Option<DVec2>,
+}
+
+/// A ZebraCrossingArea's geometry and parameters.
+#[derive(Clone, Debug)]
+pub struct Crosswalk {
+    pub name: String,
+    pub polygon: Vec<DVec2>,
+    pub stops: Vec<CrosswalkStop>,
+    pub max_detection_distance: f64,
+    /// cos of the cone half-angle.
+    pub cos_tolerance: f64,
+    pub stop_buffer: f64,
+    pub debug_logs: bool,
+    /// Whitelist of the parent ZebraCrossingConfig (empty lists allow all).
+    pub whitelist: ZebraConfigDef,
+}
+
+/// A traffic simulator of the scene with lane ids and vehicle kinds resolved.
+#[derive(Clone, Debug)]
+pub enum SimulatorSpec {
+    Random {
+        lanes: Vec<LaneId>,
+        kinds: Vec<usize>,
+        maximum_spawns: u32,
+        enabled: bool,
+        attempts_per_tick: u32,
+    },
+    Route {
+        route: Vec<LaneId>,
+        kinds: Vec<usize>,
+        maximum_spawns: u32,
+        enabled: bool,
+    },
+}
+
+#[derive(Clone, Debug)]
+pub struct LaneNetwork {
+    pub name: String,
+    pub lanes: Vec<Lane>,
+    by_name: FxHashMap<String, LaneId>,
+    pub light_groups: Vec<LightGroup>,
+    pub crosswalks: Vec<Crosswalk>,
+    pub simulators: Vec<SimulatorSpec>,
+    /// Vehicle kinds used by the simulators (the built-in catalogue).
+    pub kinds: Vec<VehicleKind>,
+    pub junction_count: u32,
+}
+
+impl LaneNetwork {
+    /// Validates the map (the start-up checklist) and compiles it.
+    pub fn build(map: &MapFile) -> Result<Self, Vec<MapProblem>> {
+        map.validate()?;
+        let by_name: FxHashMap<String, LaneId> = map
+            .lanes
+            .iter()
+            .enumerate()
+            .map(|(i, l)| (l.name.to_lowercase(), i as LaneId))
+            .collect();
+        let id = |name: &String| by_name[&name.to_lowercase()];
+        let group_index: FxHashMap<&str, usize> = map
+            .light_groups
+            .iter()
+            .enumerate()
+            .map(|(i, g)| (g.name.as_str(), i))
+            .collect();
+        let mut lanes: Vec<Lane> = map
+            .lanes
+            .iter()
+            .map(|def| {
+                let points = def.waypoints.iter().map(|p| DVec2::new(p.0[0], p.0[1])).collect();
+                let heights = def.waypoints.iter().map(|p| p.0[2]).collect();
+                let line = Polyline::new(points, heights);
+                let stop_center = def
+                    .stop_line
+                    .map(|[a, b]| DVec2::new(a.0[0] + b.0[0], a.0[1] + b.0[1]) * 0.5);
+                Lane {
+                    name: def.name.clone(),
+                    stop_s: stop_center.map(|c| line.project(c)),
+                    stop_center,
+                    line,
+                    width: def.width,
+                    speed_limit: def.speed_limit,
+                    next: def.next.iter().map(id).collect(),
+                    prev: Vec::new(),
+                    intersection: def.intersection,
+                    turn: def.turn_direction,
+                    light: def.traffic_light.as_deref().map(|g| group_index[g]),
+                    right_of_way: def.right_of_way.iter().map(id).collect(),
+                    junction: None,
+                    conflicts: Vec::new(),
+                }
+            })
+            .collect();
+        for i in 0..lanes.len() {
+            for n in lanes[i].next.clone() {
+                if !lanes[n as usize].prev.contains(&(i as LaneId)) {
+                    lanes[n as usize].prev.push(i as LaneId);
+                }
+            }
+        }
+        let junction_count = find_conflicts_and_junctions(&mut lanes);
+
+        let mut kinds: Vec<VehicleKind> = Vec::new();
+        let mut kind_index = |name: &str| -> usize {
+            let kind = builtin_kind(name).expect("validated");
+            match kinds.iter().position(|k| k.name == kind.name) {
+                Some(i) => i,
+                None => {
+                    kinds.push(kind);
+                    kinds.len() - 1
+                }
+            }
+        };
+        let simulators = map
+            .traffic_simulators
+            .iter()
+            .map(|s| match s {
+                SimulatorDef::Random { lanes, prefabs, maximum_spawns, enabled, spawn_attempts_per_tick } => {
+                    SimulatorSpec::Random {
+                        lanes: lanes.iter().map(id).collect(),
+                        kinds: prefabs.iter().map(|p| kind_index(p)).collect(),
+                        maximum_spawns: *maximum_spawns,
+                        enabled: *enabled,
+                        attempts_per_tick: (*spawn_attempts_per_tick).max(1),
+                    }
+                }
+                SimulatorDef::Route { route, prefabs, maximum_spawns, enabled } => SimulatorSpec::Route {
+                    route: route.iter().map(id).collect(),
+                    kinds: prefabs.iter().map(|p| kind_index(p)).collect(),
+                    maximum_spawns: *maximum_spawns,
+                    enabled: *enabled,
+                },
+            })
+            .collect();
+
+        let crosswalks = map
+            .crosswalks
+            .iter()
+            .map(|c| {
+                let (polygon, center) = match &c.area {
+                    CrosswalkArea::Box { center, half_extents, yaw_deg } => {
+                        let ctr = DVec2::new(center.0[0], center.0[1]);
+                        let corners = box_corners(ctr, yaw_deg.to_radians(), half_extents[0], half_extents[1]);
+                        (corners.to_vec(), ctr)
+                    }
+                    CrosswalkArea::Polygon { points } => {
+                        let pts: Vec<DVec2> = points.iter().map(|p| DVec2::new(p.0[0], p.0[1])).collect();
+                        let ctr = pts.iter().copied().sum::<DVec2>() / pts.len() as f64;
+                        (pts, ctr)
+                    }
+                };
+                let mut stops: Vec<CrosswalkStop> = c
+                    .stop_points
+                    .iter()
+                    .map(|s| CrosswalkStop {
+                        position: DVec2::new(s.position.0[0], s.position.0[1]),
+                        heading: s.heading_deg.map(|h| DVec2::from_angle(h.to_radians())),
+                    })
+                    .collect();
+                if stops.is_empty() {
+                    stops.push(CrosswalkStop { position: center, heading: None });
+                }
+                let whitelist = c
+                    .config
+                    .as_ref()
+                    .and_then(|name| map.zebra_configs.iter().find(|z| &z.name == name))
+                    .cloned()
+                    .unwrap_or_default();
+                Crosswalk {
+                    name: c.name.clone(),
+                    polygon,
+                    stops,
+                    max_detection_distance: c.max_detection_distance,
+                    cos_tolerance: c.forward_angle_tolerance_deg.to_radians().cos(),
+                    stop_buffer: c.stop_buffer,
+                    debug_logs: c.enable_debug_logs,
+                    whitelist,
+                }
+            })
+            .collect();
+
+        Ok(LaneNetwork {
+            name: map.name.clone(),
+            lanes,
+            by_name,
+            light_groups: map
+                .light_groups
+                .iter()
+                .map(|g| LightGroup { name: g.name.clone(), program: g.program })
+                .collect(),
+            crosswalks,
+            simulators,
+            kinds,
+            junction_count,
+        })
+    }
+
+    /// Case-insensitive lane lookup.
+    pub fn lane_id(&self, name: &str) -> Option<LaneId> {
+        self.by_name.get(&name.to_lowercase()).copied()
+    }
+
+    pub fn lane(&self, id: LaneId) -> &Lane {
+        &self.lanes[id as usize]
+    }
+
+    pub fn light_group(&self, name: &str) -> Option<usize> {
+        self.light_groups.iter().position(|g| g.name == name)
+    }
+
+    pub fn crosswalk(&self, name: &str) -> Option<usize> {
+        self.crosswalks.iter().position(|c| c.name == name)
+    }
+
+    /// Kind index for a vehicle kind name, adding a built-in kind if needed.
+    pub fn kind_index(&mut self, name: &str) -> Option<usize> {
+        let kind = builtin_kind(name)?;
+        Some(match self.kinds.iter().position(|k| k.name == kind.name) {
+            Some(i) => i,
+            None => {
+                self.kinds.push(kind);
+                self.kinds.len() - 1
+            }
+        })
+    }
+}

@@ -1,0 +1,36 @@
+//! Seeded random streams. Every simulator and every vehicle owns one, so draws
+//! never depend on thread scheduling or on other entities.
+
+use rand_core::Rng;
+use rand_pcg::Pcg64Mcg;
+
+#[derive(Clone, Debug)]
+pub struct SimRng(Pcg64Mcg);
+
+/// SplitMix64 finaliser: spreads (seed, stream) over the generator's state.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
+impl SimRng {
+    /// A stream determined by the run's seed and the owner's stream number.
+    pub fn new(seed: u64, stream: u64) -> Self {
+        let hi = mix(seed ^ 0x9e37_79b9_7f4a_7c15);
+        let lo = mix(stream.wrapping_add(hi));
+        // The MCG state must be odd.
+        SimRng(Pcg64Mcg::new(((hi as u128) << 64) | (lo as u128) | 1))
+    }
+
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        (self.0.next_u64() >> 11) as f64 * (1.0 / (1u64 << 53) as f64)
+    }
+
+    /// Uniform in 0..n (n > 0).
+    pub fn below(&mut self, n: usize) -> usize {
+        debug_assert!(n > 0);
+        ((self.0.next_u64() as u128 * n as u128) >> 64) as usize
+    }
+}

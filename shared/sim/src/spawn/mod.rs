@@ -1,0 +1,79 @@
+//! Traffic simulators (the seed's ITrafficSimulator) and what they propose.
+//!
+//! The world's spawn phase collects proposals from every enabled simulator, groups
+//! them by spawn point and decides which spawn (ego distance, per-lane rate,
+//! priority, IsSpawnable, max vehicle count). A user-defined simulator implements
+//! [`TrafficSimulator`] and is added with `World::add_traffic_simulator`.
+
+mod random;
+mod route;
+
+use std::sync::Arc;
+
+pub use random::RandomTrafficSimulator;
+pub use route::RouteTrafficSimulator;
+
+use crate::network::{LaneId, LaneNetwork, SimulatorSpec};
+use crate::rng::SimRng;
+
+/// One spawn proposal: a vehicle kind at the start of a lane.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpawnProposal {
+    pub lane: LaneId,
+    /// Index into the network's vehicle kinds.
+    pub kind: usize,
+    /// Lanes to follow from the spawn lane on (route[0] is the spawn lane).
+    pub route: Option<Arc<[LaneId]>>,
+    /// The simulator's own tag for the proposal, handed back in `spawned`.
+    pub slot: usize,
+}
+
+pub trait TrafficSimulator: Send {
+    /// Enabled, and its spawn limit not reached.
+    fn is_enabled(&self) -> bool;
+    /// GetRandomSpawnInfo: this tick's proposals. A proposal's vehicle kind stays
+    /// pending until it actually spawns, so small cars do not always win.
+    fn propose(&mut self, net: &LaneNetwork, out: &mut Vec<SpawnProposal>);
+    /// The proposal with this slot spawned.
+    fn spawned(&mut self, slot: usize);
+}
+
+/// Spawn count against `maximum_spawns` (0 = unlimited).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SpawnLimit {
+    pub maximum: u32,
+    pub spawned: u32,
+}
+
+impl SpawnLimit {
+    pub fn reached(&self) -> bool {
+        self.maximum > 0 && self.spawned >= self.maximum
+    }
+}
+
+/// Builds the simulators of the scene, each with its own random stream.
+pub fn from_specs(specs: &[SimulatorSpec], seed: u64, generation: u64) -> Vec<Box<dyn TrafficSimulator>> {
+    specs
+        .iter()
+        .enumerate()
+        .map(|(i, spec)| {
+            let rng = SimRng::new(seed, (generation << 32) | i as u64);
+            let sim: Box<dyn TrafficSimulator> = match spec {
+                SimulatorSpec::Random { lanes, kinds, maximum_spawns, enabled, attempts_per_tick } => {
+                    Box::new(RandomTrafficSimulator::new(
+                        lanes.clone(),
+                        kinds.clone(),
+                        *maximum_spawns,
+                        *enabled,
+                        *attempts_per_tick,
+                        rng,
+                    ))
+                }
+                SimulatorSpec::Route { route, kinds, maximum_spawns, enabled } => Box::new(
+                    RouteTrafficSimulator::new(route.clone(), kinds.clone(), *maximum_spawns, *enabled, rng),
+                ),
+            };
+            sim
+        })
+        .collect()
+}

@@ -1,0 +1,124 @@
+//! NPC vehicle state (the reference's NPCVehicleInternalState).
+
+use glam::DVec2;
+use trafficmesh_model::{LightColor, SpeedMode, TurnSignal, YieldPhase};
+
+use crate::network::LaneId;
+use crate::rng::SimRng;
+
+pub type VehicleId = u64;
+
+/// Pose in the map frame: x east, y north, z up, yaw radians counter-clockwise from +x.
+/// (x, y) is the vehicle origin, the rear axle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Pose {
+    pub x: f64,
+    pub y: f64,
+    pub z: f64,
+    pub yaw: f64,
+}
+
+/// The zebra-crossing fields of the crosswalk document.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ZebraState {
+    pub is_blocked: bool,
+    /// Metres to the stop point minus the buffer; `f64::MAX` when not blocked.
+    pub distance_to_stop: f64,
+    /// Index of the matched crosswalk area.
+    pub area: Option<usize>,
+    pub was_blocked: bool,
+}
+
+impl Default for ZebraState {
+    fn default() -> Self {
+        ZebraState { is_blocked: false, distance_to_stop: f64::MAX, area: None, was_blocked: false }
+    }
+}
+
+/// A route being followed and how far along it the vehicle's lane list is.
+#[derive(Clone, Debug)]
+pub struct RouteProgress {
+    pub lanes: std::sync::Arc<[LaneId]>,
+    /// Index in `lanes` of the last lane appended to the path.
+    pub index: usize,
+}
+
+/// Trip accounting for the trip CSV.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TripStats {
+    pub spawn_time: f64,
+    pub distance: f64,
+    pub stops: u32,
+    pub time_stopped: f64,
+    pub stopped: bool,
+}
+
+#[derive(Clone, Debug)]
+pub struct Vehicle {
+    pub id: VehicleId,
+    /// Index into the network's vehicle kinds.
+    pub kind: usize,
+    /// Origin (rear axle) to front bumper, length and width, metres.
+    pub front_offset: f64,
+    pub length: f64,
+    pub width: f64,
+
+    /// followingLanes: element 0 is the lane the front bumper is on.
+    pub path: Vec<LaneId>,
+    /// The lane before path[0], where the rear may still be.
+    pub prev_lane: Option<LaneId>,
+    /// Arc length of the front bumper along path[0].
+    pub s: f64,
+    pub speed: f64,
+    pub acceleration: f64,
+    pub route: Option<RouteProgress>,
+
+    // Cognition outputs.
+    pub is_turning: bool,
+    pub distance_to_front: f64,
+    pub light_lane: Option<LaneId>,
+    /// Along-path metres from the front bumper to the light lane's stop line.
+    pub distance_to_light: f64,
+    pub passability: LightColor,
+    pub yield_lane: Option<LaneId>,
+    pub yield_phase: YieldPhase,
+    pub yield_point: DVec2,
+    pub dominating: Option<VehicleId>,
+    /// Set by deadlock breaking: ignore lane rules while entering this junction.
+    pub forced_through: Option<u32>,
+    pub zebra: ZebraState,
+
+    // Decision and control outputs.
+    pub speed_mode: SpeedMode,
+    pub pose: Pose,
+    pub front: DVec2,
+    pub back: DVec2,
+    pub turn_signal: TurnSignal,
+
+    pub should_despawn: bool,
+    pub despawn_reason: Option<crate::events::DespawnReason>,
+    pub rng: SimRng,
+    pub trip: TripStats,
+}
+
+impl Vehicle {
+    pub fn forward(&self) -> DVec2 {
+        DVec2::from_angle(self.pose.yaw)
+    }
+
+    /// Straight-line distance from the front bumper to p, negative when p is behind.
+    pub fn signed_distance(&self, p: DVec2) -> f64 {
+        let d = p - self.front;
+        let dist = d.length();
+        if self.forward().dot(d) < 0.0 { -dist } else { dist }
+    }
+
+    pub fn current_lane(&self) -> LaneId {
+        self.path[0]
+    }
+
+    /// Arc length of the rear bumper on path[0]; negative while it is still on prev_lane.
+    pub fn rear_s(&self) -> f64 {
+        self.s - self.length
+    }
+}

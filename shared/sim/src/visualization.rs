@@ -1,0 +1,35 @@
+//! Visualization: turn signals from the upcoming lanes, trip bookkeeping.
+
+use trafficmesh_model::{TurnDirection, TurnSignal};
+
+use crate::network::LaneNetwork;
+use crate::vehicle::Vehicle;
+
+/// Below this speed a vehicle counts as stopped (AWSIM's brake-light threshold).
+pub const STOPPED_SPEED: f64 = 0.03;
+
+/// The current lane's turn, else the next lane's; kept when only one lane is known.
+pub fn turn_signal(net: &LaneNetwork, v: &Vehicle) -> TurnSignal {
+    if v.path.len() < 2 {
+        return v.turn_signal;
+    }
+    let signal = |d| match d {
+        TurnDirection::Left => Some(TurnSignal::Left),
+        TurnDirection::Right => Some(TurnSignal::Right),
+        TurnDirection::Straight => None,
+    };
+    signal(net.lane(v.path[0]).turn)
+        .or_else(|| signal(net.lane(v.path[1]).turn))
+        .unwrap_or(TurnSignal::Off)
+}
+
+pub fn update_trip(v: &mut Vehicle, dt: f64) {
+    let stopped = v.speed < STOPPED_SPEED;
+    if stopped {
+        if !v.trip.stopped {
+            v.trip.stops += 1;
+        }
+        v.trip.time_stopped += dt;
+    }
+    v.trip.stopped = stopped;
+}

@@ -1,0 +1,262 @@
+//! The world: the network, the vehicles and everything around them, stepped
+//! one tick at a time. This is the NPCVehicleSimulator and the TrafficManager's
+//! spawn loop in one deterministic, I/O-free object.
+
+mod spawning;
+mod step;
+
+use glam::{DVec2, DVec3};
+use thiserror::Error;
+use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
+
+use crate::branching::{BranchPolicy, BranchStats};
+use crate::crosswalk::{OccupancyChange, Occupancy, OccupantType};
+use crate::ego::Ego;
+use crate::events::{DespawnReason, SimEvent};
+use crate::lane_index::LaneIndex;
+use crate::lights::{LightControl, Lights};
+use crate::network::LaneNetwork;
+use crate::spawn::{self, TrafficSimulator};
+use crate::vehicle::{Vehicle, VehicleId};
+
+pub use spawning::SpawnStats;
+
+/// Run parameters, with the seed's defaults.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldConfig {
+    pub seed: u64,
+    /// maxVehicleCount.
+    pub max_vehicles: usize,
+    /// spawnDistanceToEgo, metres.
+    pub spawn_distance_to_ego: f64,
+    /// Tick length, seconds.
+    pub dt: f64,
+    pub vehicle: NpcVehicleConfig,
+}
+
+impl Default for WorldConfig {
+    fn default() -> Self {
+        WorldConfig {
+            seed: 0,
+            max_vehicles: 40,
+            spawn_distance_to_ego: 50.0,
+            dt: 0.02,
+            vehicle: NpcVehicleConfig::default(),
+        }
+    }
+}
+
+#[derive(Debug, Error, PartialEq)]
+pub enum WorldError {
+    #[error("unknown lane '{0}'")]
+    UnknownLane(String),
+    #[error("unknown vehicle kind '{0}'")]
+    UnknownKind(String),
+    #[error("unknown crosswalk '{0}'")]
+    UnknownCrosswalk(String),
+    #[error("unknown light group '{0}'")]
+    UnknownLightGroup(String),
+    #[error("position {s} m is outside lane '{lane}' (0 to {length:.2} m)")]
+    OutsideLane { lane: String, s: f64, length: f64 },
+    #[error(transparent)]
+    SpawnConfig(#[from] SpawnConfigError),
+}
+
+pub struct World {
+    net: LaneNetwork,
+    config: WorldConfig,
+    time: f64,
+    ticks: u64,
+    vehicles: Vec<Vehicle>,
+    index: LaneIndex,
+    lights: Lights,
+    occupancy: Occupancy,
+    ego: Option<Ego>,
+    simulators: Vec<Box<dyn TrafficSimulator>>,
+    /// Simulators added at run time (AddTrafficSimulator); kept across Restart.
+    extra_simulators: usize,
+    priorities: Vec<i64>,
+    spawn_config: Option<TrafficSpawnConfig>,
+    branch_policy: BranchPolicy,
+    branch_stats: BranchStats,
+    /// spawnsPerMinute per lane (0 = no limit) and the last accepted spawn time.
+    spawn_rates: Vec<f64>,
+    last_spawn: Vec<f64>,
+    spawn_stats: SpawnStats,
+    next_id: VehicleId,
+    generation: u64,
+    events: Vec<SimEvent>,
+}
+
+impl World {
+    pub fn new(net: LaneNetwork, config: WorldConfig) -> Self {
+        let lanes = net.lanes.len();
+        let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
+        let occupancy = Occupancy::new(net.crosswalks.len());
+        let simulators = spawn::from_specs(&net.simulators, config.seed, 0);
+        let priorities = vec![0; simulators.len()];
+        let index = LaneIndex::build(lanes, &[], |_| 0.0);
+        World {
+            net,
+            config,
+            time: 0.0,
+            ticks: 0,
+            vehicles: Vec::new(),
+            index,
+            lights,
+            occupancy,
+            ego: None,
+            simulators,
+            extra_simulators: 0,
+            priorities,
+            spawn_config: None,
+            branch_policy: BranchPolicy::none(),
+            branch_stats: BranchStats::default(),
+            spawn_rates: vec![0.0; lanes],
+            last_spawn: vec![f64::NEG_INFINITY; lanes],
+            spawn_stats: SpawnStats::default(),
+            next_id: 0,
+            generation: 0,
+            events: Vec::new(),
+        }
+    }
+
+    pub fn network(&self) -> &LaneNetwork {
+        &self.net
+    }
+    pub fn config(&self) -> &WorldConfig {
+        &self.config
+    }
+    pub fn time(&self) -> f64 {
+        self.time
+    }
+    pub fn ticks(&self) -> u64 {
+        self.ticks
+    }
+    /// Vehicles in spawn order (ascending id).
+    pub fn vehicles(&self) -> &[Vehicle] {
+        &self.vehicles
+    }
+    pub fn vehicle(&self, id: VehicleId) -> Option<&Vehicle> {
+        self.vehicles.binary_search_by_key(&id, |v| v.id).ok().map(|i| &self.vehicles[i])
+    }
+    pub fn lights(&self) -> &Lights {
+        &self.lights
+    }
+    pub fn occupancy(&self) -> &Occupancy {
+        &self.occupancy
+    }
+    pub fn branch_stats(&self) -> &BranchStats {
+        &self.branch_stats
+    }
+    /// The branch-decision CSV (header and one row per from, to, mode).
+    pub fn branch_csv(&self) -> String {
+        self.branch_stats.to_csv(&self.net)
+    }
+    pub fn spawn_stats(&self) -> &SpawnStats {
+        &self.spawn_stats
+    }
+    /// Events since the last call.
+    pub fn drain_events(&mut self) -> std::vec::Drain<'_, SimEvent> {
+        self.events.drain(..)
+    }
+
+    /// Sets the ego; `None` means the dummy ego, which blocks nothing.
+    pub fn set_ego(&mut self, ego: Option<Ego>) {
+        self.ego = ego;
+    }
+    pub fn ego(&self) -> Option<&Ego> {
+        self.ego.as_ref()
+    }
+
+    /// AddTrafficSimulator: joins the spawn loop and the priority system.
+    pub fn add_traffic_simulator(&mut self, sim: Box<dyn TrafficSimulator>) {
+        self.simulators.push(sim);
+        self.priorities.push(0);
+        self.extra_simulators += 1;
+    }
+
+    /// Applies a spawn config (rates and branch weights), after validating it
+    /// against the map. On error nothing changes.
+    pub fn set_spawn_config(&mut self, config: TrafficSpawnConfig) -> Result<(), WorldError> {
+        config.validate(|name| self.net.lane_id(name).is_some())?;
+        self.spawn_rates.fill(0.0);
+        for rate in &config.spawn_rates {
+            let lane = self.net.lane_id(&rate.lane).expect("validated");
+            self.spawn_rates[lane as usize] = rate.spawns_per_minute;
+        }
+        self.branch_policy = BranchPolicy::from_config(&self.net, &config);
+        self.spawn_config = Some(config);
+        Ok(())
+    }
+
+    /// The spawn config in force (empty when none was loaded).
+    pub fn spawn_config(&self) -> TrafficSpawnConfig {
+        self.spawn_config.clone().unwrap_or_default()
+    }
+
+    /// Forces a light group to a colour or gives it a new program.
+    pub fn set_light(&mut self, group: &str, control: LightControl) -> Result<(), WorldError> {
+        let g = self.net.light_group(group).ok_or_else(|| WorldError::UnknownLightGroup(group.into()))?;
+        self.lights.set_control(g, control, self.time);
+        Ok(())
+    }
+
+    /// An occupant (pedestrian, cyclist, ...) enters a crosswalk area.
+    pub fn crosswalk_enter(&mut self, area: &str, root: &str, kind: OccupantType) -> Result<OccupancyChange, WorldError> {
+        let a = self.net.crosswalk(area).ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
+        let change = self.occupancy.enter(&self.net.crosswalks, a, root, kind);
+        if change == OccupancyChange::Entered && self.net.crosswalks[a].debug_logs {
+            tracing::info!("[Zebra] '{root}' entered '{area}'");
+        }
+        Ok(change)
+    }
+
+    /// An occupant leaves a crosswalk area.
+    pub fn crosswalk_exit(&mut self, area: &str, root: &str) -> Result<OccupancyChange, WorldError> {
+        let a = self.net.crosswalk(area).ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
+        let change = self.occupancy.exit(a, root);
+        if change == OccupancyChange::Exited && self.net.crosswalks[a].debug_logs {
+            tracing::info!("[Zebra] '{root}' exited '{area}'");
+        }
+        Ok(change)
+    }
+
+    /// RemoveVehiclesInRadius: flags every vehicle whose origin is within `radius`
+    /// of `center` (3D) and returns how many; they are gone after the next tick.
+    pub fn remove_vehicles_in_radius(&mut self, center: DVec3, radius: f64) -> usize {
+        let mut count = 0;
+        for v in &mut self.vehicles {
+            let p = DVec3::new(v.pose.x, v.pose.y, v.pose.z);
+            if !v.should_despawn && p.distance_squared(center) <= radius * radius {
+                v.should_despawn = true;
+                v.despawn_reason = Some(DespawnReason::Removed);
+                count += 1;
+            }
+        }
+        count
+    }
+
+    /// RemoveVehiclesInRadius around a 2D point at height 0.
+    pub fn remove_vehicles_near(&mut self, center: DVec2, radius: f64) -> usize {
+        self.remove_vehicles_in_radius(center.extend(0.0), radius)
+    }
+
+    /// Restart: disposes of every vehicle, pending spawn and rate-limit state and
+    /// starts again with a new maximum vehicle count. The ego, the spawn config,
+    /// the branch statistics and added simulators are kept; ids keep counting.
+    pub fn restart(&mut self, max_vehicles: usize) {
+        let time = self.time;
+        for v in self.vehicles.drain(..) {
+            self.events.push(SimEvent::Despawned(step::trip_record(&self.net, &v, time, DespawnReason::Restart)));
+        }
+        self.generation += 1;
+        let extra: Vec<_> = self.simulators.drain(..).skip(self.net.simulators.len()).collect();
+        self.simulators = spawn::from_specs(&self.net.simulators, self.config.seed, self.generation);
+        self.simulators.extend(extra);
+        self.priorities = vec![0; self.simulators.len()];
+        self.last_spawn.fill(f64::NEG_INFINITY);
+        self.config.max_vehicles = max_vehicles;
+        self.index = LaneIndex::build(self.net.lanes.len(), &[], |_| 0.0);
+    }
+}

@@ -1,0 +1,155 @@
+//! One tick: spawn, Cognition, Decision, Control, Visualization, despawn.
+
+use rayon::prelude::*;
+
+use super::World;
+use crate::cognition::path::advance_and_extend;
+use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
+use crate::cognition::{Perception, Snapshot, deadlock, perceive};
+use crate::control::{step_speed, update_pose};
+use crate::decision::decide;
+use crate::events::{DespawnReason, SimEvent, TripRecord};
+use crate::lane_index::LaneIndex;
+use crate::network::LaneNetwork;
+use crate::vehicle::Vehicle;
+use crate::visualization::{turn_signal, update_trip};
+
+pub(super) fn trip_record(net: &LaneNetwork, v: &Vehicle, time: f64, reason: DespawnReason) -> TripRecord {
+    TripRecord {
+        id: v.id,
+        kind: net.kinds[v.kind].name.clone(),
+        spawn_time: v.trip.spawn_time,
+        despawn_time: time,
+        distance: v.trip.distance,
+        stops: v.trip.stops,
+        time_stopped: v.trip.time_stopped,
+        reason,
+    }
+}
+
+/// The name the seed's log lines use: `<prefab>(Clone)_<id>`.
+pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
+    format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
+}
+
+impl World {
+    /// Advances the world by one tick of `config.dt` seconds.
+    pub fn step(&mut self) {
+        let dt = self.config.dt;
+        self.lights.update(self.time);
+        self.spawn_phase();
+        self.follow_lanes();
+        self.index = LaneIndex::build(self.net.lanes.len(), &self.vehicles, |l| self.net.lane(l).length());
+
+        let perceptions = self.cognition();
+        self.zebra_events(&perceptions);
+        let (net, config) = (&self.net, &self.config.vehicle);
+        self.vehicles.par_iter_mut().zip(perceptions.par_iter()).for_each(|(v, p)| p.apply(v));
+        deadlock::break_cycles(&self.net, &mut self.vehicles);
+        self.vehicles.par_iter_mut().for_each(|v| {
+            if v.should_despawn {
+                return;
+            }
+            v.speed_mode = decide(v, config);
+            step_speed(net, v, config, dt);
+            update_pose(net, v);
+            v.turn_signal = turn_signal(net, v);
+            update_trip(v, dt);
+        });
+        self.time += dt;
+        self.ticks += 1;
+        self.despawn_flagged();
+    }
+
+    /// Sequential, in vehicle order: lane advance and branch choices (which draw
+    /// from each vehicle's own random stream and feed the statistics).
+    fn follow_lanes(&mut self) {
+        let mut decisions = Vec::new();
+        let decel = self.config.vehicle.deceleration;
+        for v in &mut self.vehicles {
+            if v.should_despawn {
+                continue;
+            }
+            decisions.clear();
+            advance_and_extend(&self.net, &self.branch_policy, v, decel, &mut decisions);
+            if v.should_despawn && v.despawn_reason.is_none() {
+                v.despawn_reason = Some(DespawnReason::DeadEnd);
+            }
+            if v.forced_through.is_some()
+                && !self.net.lane(v.path[0]).intersection
+                && v.prev_lane.is_some_and(|p| self.net.lane(p).intersection)
+            {
+                v.forced_through = None;
+            }
+            for choice in &decisions {
+                self.branch_stats.record(choice);
+                self.events.push(SimEvent::BranchDecision { id: v.id, choice: *choice });
+            }
+        }
+    }
+
+    /// Parallel perception of every vehicle from the same snapshot.
+    fn cognition(&self) -> Vec<Perception> {
+        let net = &self.net;
+        let row: Vec<RowInfo> = self.vehicles.par_iter().map(|v| RowInfo::of(net, v)).collect();
+        let junctions = JunctionBuckets::build(net, &row);
+        let snap = Snapshot {
+            net,
+            vehicles: &self.vehicles,
+            index: &self.index,
+            lights: &self.lights,
+            occupancy: &self.occupancy,
+            ego: self.ego.as_ref(),
+            config: &self.config.vehicle,
+            row: &row,
+            junctions: &junctions,
+        };
+        (0..self.vehicles.len()).into_par_iter().map(|i| perceive(&snap, i)).collect()
+    }
+
+    /// The WasZebraBlocked transitions (before the new perceptions are applied, so
+    /// the area that cleared is still known), with the seed's log lines.
+    fn zebra_events(&mut self, perceptions: &[Perception]) {
+        for (v, p) in self.vehicles.iter().zip(perceptions) {
+            match (v.zebra.is_blocked, p.zebra.is_blocked) {
+                (false, true) => {
+                    let area = p.zebra.area.expect("blocked implies an area");
+                    if self.net.crosswalks[area].debug_logs {
+                        tracing::info!(
+                            "[NPC Zebra] Vehicle '{}' stopping for zebra '{}' at ~{:.1}m.",
+                            vehicle_name(&self.net, v),
+                            self.net.crosswalks[area].name,
+                            p.zebra.distance_to_stop
+                        );
+                    }
+                    self.events.push(SimEvent::ZebraStop { id: v.id, area, distance: p.zebra.distance_to_stop });
+                }
+                (true, false) => {
+                    let area = v.zebra.area.expect("blocked implies an area");
+                    if self.net.crosswalks[area].debug_logs {
+                        tracing::info!(
+                            "[NPC Zebra] Vehicle '{}' cleared zebra '{}'.",
+                            vehicle_name(&self.net, v),
+                            self.net.crosswalks[area].name
+                        );
+                    }
+                    self.events.push(SimEvent::ZebraClear { id: v.id, area });
+                }
+                _ => {}
+            }
+        }
+    }
+
+    fn despawn_flagged(&mut self) {
+        let time = self.time;
+        let net = &self.net;
+        let events = &mut self.events;
+        self.vehicles.retain(|v| {
+            if v.should_despawn {
+                let reason = v.despawn_reason.unwrap_or(DespawnReason::DeadEnd);
+                events.push(SimEvent::Despawned(trip_record(net, v, time, reason)));
+            }
+            !v.should_despawn
+        });
+    }
+}
