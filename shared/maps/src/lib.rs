@@ -1,1 +1,12 @@
+//! Reading and writing trafficmesh's files: native JSON maps (with errors that
+//! name the lane and field), spawn configs (written atomically, previous version
+//! kept), and the signalised-grid generator. Importers of foreign formats (SUMO,
+//! Lanelet2) will live here too.
 
+pub mod files;
+pub mod grid;
+
+pub use files::{
+    FileError, load_map, load_spawn_config, parse_map, parse_spawn_config, save_spawn_config, write_atomic,
+};
+pub use grid::{GridOptions, grid_map};
