@@ -1,1 +1,51 @@
-fn main(){}
+//! `trafficmesh`: the command line. Each subcommand lives in its own module;
+//! this file is the list of them.
+
+mod commands;
+mod output;
+
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "trafficmesh", version, about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run the simulation headless in one process, as fast as it goes.
+    Sim(commands::sim::SimArgs),
+    /// Write an N x N signalised grid map (two lanes per direction).
+    GenGrid(commands::gen_grid::GenGridArgs),
+    /// Benchmarks that print their figures.
+    #[command(subcommand)]
+    Bench(commands::bench::BenchCommand),
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .init();
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Sim(args) => commands::sim::run(args),
+        Command::GenGrid(args) => commands::gen_grid::run(args),
+        Command::Bench(cmd) => commands::bench::run(cmd),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            // Bad arguments and bad files: the same exit code clap uses for usage errors.
+            ExitCode::from(2)
+        }
+    }
+}

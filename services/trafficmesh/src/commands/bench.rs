@@ -1,0 +1,98 @@
+//! `trafficmesh bench tick`: tick cost on a full grid, for `perf stat` and reports.
+
+use std::time::Instant;
+
+use anyhow::{Result, bail};
+use clap::{Args, Subcommand};
+use serde::Serialize;
+use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_sim::populate::populate;
+use trafficmesh_sim::{LaneNetwork, World, WorldConfig};
+
+use super::thread_pool;
+use crate::output::print_summary;
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// Step a generated grid filled with N vehicles and report the tick cost.
+    Tick(TickArgs),
+}
+
+#[derive(Args)]
+pub struct TickArgs {
+    /// Grid size (junctions per side).
+    #[arg(long, default_value_t = 40)]
+    size: usize,
+    /// Vehicles placed before measuring.
+    #[arg(long, default_value_t = 10_000)]
+    vehicles: usize,
+    /// Ticks to measure (after 50 warm-up ticks).
+    #[arg(long, default_value_t = 500)]
+    ticks: u64,
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct TickReport {
+    grid: usize,
+    vehicles: usize,
+    threads: usize,
+    ticks: u64,
+    vehicle_steps: u64,
+    vehicle_steps_per_sec: f64,
+    tick_mean_ms: f64,
+    tick_p50_ms: f64,
+    tick_p99_ms: f64,
+    realtime_factor_at_dt_0_02: f64,
+}
+
+pub fn run(cmd: BenchCommand) -> Result<()> {
+    let BenchCommand::Tick(a) = cmd;
+    if a.size == 0 || a.ticks == 0 {
+        bail!("--size and --ticks must be positive");
+    }
+    let net = LaneNetwork::build(&grid_map(&GridOptions { size: a.size, ..GridOptions::default() }))
+        .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
+    let mut world = World::new(net, WorldConfig { max_vehicles: a.vehicles, ..WorldConfig::default() });
+    let placed = populate(&mut world, a.vehicles);
+    let pool = thread_pool(a.threads)?;
+    let mut durations = Vec::with_capacity(a.ticks as usize);
+    let mut vehicle_steps = 0u64;
+    pool.install(|| {
+        for _ in 0..50 {
+            world.step();
+            world.drain_events().for_each(drop);
+        }
+        for _ in 0..a.ticks {
+            let t = Instant::now();
+            world.step();
+            durations.push(t.elapsed().as_secs_f64());
+            vehicle_steps += world.vehicles().len() as u64;
+            world.drain_events().for_each(drop);
+        }
+    });
+    let total: f64 = durations.iter().sum();
+    durations.sort_by(f64::total_cmp);
+    let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
+    let report = TickReport {
+        grid: a.size,
+        vehicles: placed,
+        threads: pool.current_num_threads(),
+        ticks: a.ticks,
+        vehicle_steps,
+        vehicle_steps_per_sec: vehicle_steps as f64 / total,
+        tick_mean_ms: total / a.ticks as f64 * 1e3,
+        tick_p50_ms: pct(0.5),
+        tick_p99_ms: pct(0.99),
+        realtime_factor_at_dt_0_02: 0.02 / (total / a.ticks as f64),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print_summary(&report)?;
+    }
+    Ok(())
+}

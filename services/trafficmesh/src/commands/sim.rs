@@ -1,0 +1,145 @@
+//! `trafficmesh sim`: the headless runner.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+use trafficmesh_sim::{SimEvent, TrajectoryHash, TripRecord, World, WorldConfig};
+
+use super::{load_network, thread_pool};
+use crate::output;
+
+#[derive(Args)]
+pub struct SimArgs {
+    /// Map file (native `.map.json`; make one with `trafficmesh gen-grid`).
+    #[arg(long)]
+    map: PathBuf,
+    /// Simulated seconds to run.
+    #[arg(long)]
+    duration: f64,
+    /// Random seed: same map, config and seed give the same trajectories.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Spawn rates and branch weights (the seed's traffic_spawn.json format).
+    #[arg(long)]
+    spawn_config: Option<PathBuf>,
+    /// maxVehicleCount.
+    #[arg(long, default_value_t = 40)]
+    max_vehicles: usize,
+    /// Worker threads (0 = one per core). Results do not depend on it.
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Tick length, seconds.
+    #[arg(long, default_value_t = 0.02)]
+    dt: f64,
+    /// Directory for trips.csv, traffic_branch_decisions.csv and traffic_spawn.json.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print one JSON object with the run's figures on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct Summary {
+    map: String,
+    seed: u64,
+    threads: usize,
+    dt: f64,
+    ticks: u64,
+    simulated_seconds: f64,
+    wall_seconds: f64,
+    vehicle_steps: u64,
+    vehicle_steps_per_sec: f64,
+    mean_vehicles: f64,
+    max_vehicles: usize,
+    spawned: u64,
+    despawned: u64,
+    branch_decisions: u64,
+    trajectory_hash: String,
+}
+
+pub fn run(a: SimArgs) -> Result<()> {
+    if !(a.duration.is_finite() && a.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds, got {}", a.duration);
+    }
+    if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
+        bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
+    }
+    let net = load_network(&a.map)?;
+    let mut world = World::new(net, WorldConfig { seed: a.seed, max_vehicles: a.max_vehicles, dt: a.dt, ..WorldConfig::default() });
+    if let Some(path) = &a.spawn_config {
+        let config = trafficmesh_maps::load_spawn_config(path)?;
+        world.set_spawn_config(config).with_context(|| format!("{}", path.display()))?;
+    }
+    if let Some(dir) = &a.out {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let pool = thread_pool(a.threads)?;
+    let ticks = (a.duration / a.dt).round() as u64;
+    let progress = ProgressBar::new(ticks).with_style(
+        ProgressStyle::with_template("{bar:40} {percent:>3}% sim {msg} eta {eta}").expect("valid template"),
+    );
+
+    let mut hash = TrajectoryHash::default();
+    let mut trips: Vec<TripRecord> = Vec::new();
+    let (mut vehicle_steps, mut peak, mut spawned, mut despawned) = (0u64, 0usize, 0u64, 0u64);
+    let started = Instant::now();
+    pool.install(|| {
+        for tick in 0..ticks {
+            world.step();
+            let n = world.vehicles().len();
+            vehicle_steps += n as u64;
+            peak = peak.max(n);
+            hash.add_tick(world.vehicles());
+            for event in world.drain_events() {
+                match event {
+                    SimEvent::Spawned { .. } => spawned += 1,
+                    SimEvent::Despawned(trip) => {
+                        despawned += 1;
+                        trips.push(trip);
+                    }
+                    _ => {}
+                }
+            }
+            if tick % 250 == 0 {
+                progress.set_position(tick);
+                progress.set_message(format!("{:.0}s, {n} vehicles", world.time()));
+            }
+        }
+    });
+    progress.finish_and_clear();
+    let wall = started.elapsed().as_secs_f64();
+
+    if let Some(dir) = &a.out {
+        output::write_trips(&dir.join("trips.csv"), &trips, &world)?;
+        trafficmesh_maps::write_atomic(&dir.join("traffic_branch_decisions.csv"), world.branch_csv().as_bytes())?;
+        trafficmesh_maps::save_spawn_config(&dir.join("traffic_spawn.json"), &world.spawn_config())?;
+    }
+    let summary = Summary {
+        map: a.map.display().to_string(),
+        seed: a.seed,
+        threads: pool.current_num_threads(),
+        dt: a.dt,
+        ticks,
+        simulated_seconds: world.time(),
+        wall_seconds: wall,
+        vehicle_steps,
+        vehicle_steps_per_sec: vehicle_steps as f64 / wall.max(1e-9),
+        mean_vehicles: vehicle_steps as f64 / ticks.max(1) as f64,
+        max_vehicles: peak,
+        spawned,
+        despawned,
+        branch_decisions: world.branch_stats().total(),
+        trajectory_hash: format!("{:016x}", hash.finish()),
+    };
+    if a.json {
+        println!("{}", serde_json::to_string(&summary)?);
+    } else {
+        output::print_summary(&summary)?;
+    }
+    Ok(())
+}

@@ -1,0 +1,54 @@
+//! Files and text the CLI writes.
+
+use std::path::Path;
+
+use anyhow::Result;
+use serde::Serialize;
+use trafficmesh_sim::{TripRecord, World};
+
+/// trips.csv: one row per vehicle, finished trips first, then those still driving
+/// (empty despawn_time, end_reason `running`).
+pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Result<()> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    w.write_record(["id", "kind", "spawn_time", "despawn_time", "distance_m", "stops", "time_stopped_s", "end_reason"])?;
+    for t in finished {
+        w.write_record([
+            t.id.to_string(),
+            t.kind.clone(),
+            format!("{:.2}", t.spawn_time),
+            format!("{:.2}", t.despawn_time),
+            format!("{:.2}", t.distance),
+            t.stops.to_string(),
+            format!("{:.2}", t.time_stopped),
+            t.reason.as_str().to_string(),
+        ])?;
+    }
+    for v in world.vehicles() {
+        w.write_record([
+            v.id.to_string(),
+            world.network().kinds[v.kind].name.clone(),
+            format!("{:.2}", v.trip.spawn_time),
+            String::new(),
+            format!("{:.2}", v.trip.distance),
+            v.trip.stops.to_string(),
+            format!("{:.2}", v.trip.time_stopped),
+            "running".to_string(),
+        ])?;
+    }
+    trafficmesh_maps::write_atomic(path, &w.into_inner()?)?;
+    Ok(())
+}
+
+/// Human-readable `key: value` lines of any flat summary.
+pub fn print_summary<T: Serialize>(summary: &T) -> Result<()> {
+    if let serde_json::Value::Object(fields) = serde_json::to_value(summary)? {
+        for (k, v) in fields {
+            match v {
+                serde_json::Value::Number(n) if n.is_f64() => println!("{k:>22}: {:.3}", n.as_f64().unwrap_or_default()),
+                serde_json::Value::String(s) => println!("{k:>22}: {s}"),
+                other => println!("{k:>22}: {other}"),
+            }
+        }
+    }
+    Ok(())
+}
