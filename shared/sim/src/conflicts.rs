@@ -58,9 +58,9 @@ fn heading_at(lane: &Lane, s: f64) -> DVec2 {
 
 fn bounding_cells(lane: &Lane) -> impl Iterator<Item = (i64, i64)> {
     let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
-    for p in &lane.line.points {
-        lo = lo.min(*p);
-        hi = hi.max(*p);
+    for p in lane.line.points() {
+        lo = lo.min(p);
+        hi = hi.max(p);
     }
     let c = |v: f64| (v / GRID_CELL).floor() as i64;
     let (x0, x1, y0, y1) = (c(lo.x - CONFLICT_DISTANCE), c(hi.x + CONFLICT_DISTANCE), c(lo.y - CONFLICT_DISTANCE), c(hi.y + CONFLICT_DISTANCE));

@@ -49,10 +49,14 @@ pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: 
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
     let (front, _) = point_on_path(net, v, 0.0);
     let (axle, z) = point_on_path(net, v, -v.front_offset);
-    let (back, _) = point_on_path(net, v, -v.length);
     let heading = front - axle;
-    let yaw = if heading.length_squared() > 1e-12 { heading.y.atan2(heading.x) } else { v.pose.yaw };
+    let length = heading.length();
+    if length > 1e-6 {
+        v.heading = heading / length;
+    }
+    let yaw = v.heading.y.atan2(v.heading.x);
     v.pose = Pose { x: axle.x, y: axle.y, z, yaw };
     v.front = front;
-    v.back = back;
+    // The back bumper only feeds the right-of-way side tests: the body's axis is enough.
+    v.back = axle - v.heading * (v.length - v.front_offset);
 }

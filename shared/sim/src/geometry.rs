@@ -2,68 +2,101 @@
 
 use glam::DVec2;
 
-/// A polyline with cumulative arc length at each vertex.
+/// One polyline vertex with everything the per-tick code reads about it, in one
+/// place so that a look-up touches one cache line rather than five arrays.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Vertex {
+    pub point: DVec2,
+    /// Height (the map's z), interpolated for poses.
+    pub z: f64,
+    /// Arc length from the first vertex.
+    pub cum: f64,
+    /// Heading of the segment starting here, radians (the last vertex repeats the
+    /// previous one).
+    pub heading: f64,
+    /// Summed absolute heading change from the first segment to this one.
+    pub turn_cum: f64,
+}
+
+/// A polyline with arc lengths, headings and turning precomputed.
 #[derive(Clone, Debug)]
 pub struct Polyline {
-    pub points: Vec<DVec2>,
-    /// Height of each point (the map's z), interpolated for poses.
-    pub heights: Vec<f64>,
-    /// cum[i] = arc length from points[0] to points[i].
-    pub cum: Vec<f64>,
+    pub vertices: Vec<Vertex>,
+    length: f64,
 }
 
 impl Polyline {
+    /// At least two points.
     pub fn new(points: Vec<DVec2>, heights: Vec<f64>) -> Self {
-        let mut cum = Vec::with_capacity(points.len());
-        let mut acc = 0.0;
-        for (i, p) in points.iter().enumerate() {
+        let n = points.len();
+        let mut vertices: Vec<Vertex> = Vec::with_capacity(n);
+        let (mut cum, mut turn) = (0.0, 0.0);
+        for i in 0..n {
             if i > 0 {
-                acc += p.distance(points[i - 1]);
+                cum += points[i].distance(points[i - 1]);
             }
-            cum.push(acc);
+            let seg = if i + 1 < n { i } else { i - 1 };
+            let d = points[seg + 1] - points[seg];
+            let heading = d.y.atan2(d.x);
+            if i > 0 && i + 1 < n {
+                turn += angle_between(vertices[i - 1].heading, heading);
+            }
+            vertices.push(Vertex { point: points[i], z: heights[i], cum, heading, turn_cum: turn });
         }
-        Polyline { points, heights, cum }
+        Polyline { vertices, length: cum }
     }
 
     pub fn length(&self) -> f64 {
-        *self.cum.last().unwrap_or(&0.0)
+        self.length
+    }
+
+    pub fn point_count(&self) -> usize {
+        self.vertices.len()
+    }
+
+    pub fn point(&self, i: usize) -> DVec2 {
+        self.vertices[i].point
+    }
+
+    pub fn points(&self) -> impl Iterator<Item = DVec2> + '_ {
+        self.vertices.iter().map(|v| v.point)
     }
 
     /// Index i of the segment [i, i+1] containing arc length s (clamped to the ends).
     pub fn segment_at(&self, s: f64) -> usize {
-        let last = self.points.len() - 2;
-        match self.cum.binary_search_by(|c| c.total_cmp(&s)) {
-            Ok(i) => i.min(last),
-            Err(i) => i.saturating_sub(1).min(last),
+        let last = self.vertices.len() - 2;
+        // Most lanes are one straight segment: no search needed.
+        if last == 0 {
+            return 0;
         }
+        self.vertices.partition_point(|v| v.cum <= s).saturating_sub(1).min(last)
     }
 
     /// Unit direction of segment i.
     pub fn direction(&self, i: usize) -> DVec2 {
-        (self.points[i + 1] - self.points[i]).normalize_or_zero()
+        (self.vertices[i + 1].point - self.vertices[i].point).normalize_or_zero()
     }
 
     /// Point and height at arc length s; beyond the ends the end segments are extended.
     pub fn point_at(&self, s: f64) -> (DVec2, f64) {
         let i = self.segment_at(s);
-        let seg = self.cum[i + 1] - self.cum[i];
-        let t = if seg > 0.0 { (s - self.cum[i]) / seg } else { 0.0 };
-        let p = self.points[i].lerp(self.points[i + 1], t);
-        let z = self.heights[i] + (self.heights[i + 1] - self.heights[i]) * t.clamp(0.0, 1.0);
-        (p, z)
+        let (a, b) = (&self.vertices[i], &self.vertices[i + 1]);
+        let seg = b.cum - a.cum;
+        let t = if seg > 0.0 { (s - a.cum) / seg } else { 0.0 };
+        (a.point.lerp(b.point, t), a.z + (b.z - a.z) * t.clamp(0.0, 1.0))
     }
 
     /// Arc length of the point of the polyline closest to p.
     pub fn project(&self, p: DVec2) -> f64 {
         let mut best = (f64::INFINITY, 0.0);
-        for i in 0..self.points.len() - 1 {
-            let (a, b) = (self.points[i], self.points[i + 1]);
+        for w in self.vertices.windows(2) {
+            let (a, b) = (w[0].point, w[1].point);
             let ab = b - a;
             let len2 = ab.length_squared();
             let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
             let d = p.distance_squared(a + ab * t);
             if d < best.0 {
-                best = (d, self.cum[i] + t * len2.sqrt());
+                best = (d, w[0].cum + t * len2.sqrt());
             }
         }
         best.1

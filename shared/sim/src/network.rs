@@ -41,7 +41,7 @@ impl Lane {
     /// The reference's `stopPoint(i)`: the stop line's centre, else waypoint i.
     pub fn stop_point(&self, i: usize) -> DVec2 {
         self.stop_center
-            .unwrap_or(self.line.points[i.min(self.line.points.len() - 1)])
+            .unwrap_or(self.line.point(i.min(self.line.point_count() - 1)))
     }
 
     /// Stop position of a signalised lane: its stop line, else its end.

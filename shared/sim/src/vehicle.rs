@@ -67,6 +67,8 @@ pub struct Vehicle {
     pub path: Vec<LaneId>,
     /// The lane before path[0], where the rear may still be.
     pub prev_lane: Option<LaneId>,
+    /// Summed length of the lanes in `path`.
+    pub path_length: f64,
     /// Arc length of the front bumper along path[0].
     pub s: f64,
     pub speed: f64,
@@ -93,6 +95,8 @@ pub struct Vehicle {
     pub pose: Pose,
     pub front: DVec2,
     pub back: DVec2,
+    /// Unit vector of `pose.yaw`.
+    pub heading: DVec2,
     pub turn_signal: TurnSignal,
 
     pub should_despawn: bool,
@@ -102,8 +106,9 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
+    /// Unit heading, kept in step with `pose.yaw` by the Control step.
     pub fn forward(&self) -> DVec2 {
-        DVec2::from_angle(self.pose.yaw)
+        self.heading
     }
 
     /// Straight-line distance from the front bumper to p, negative when p is behind.

@@ -110,16 +110,16 @@ fn ego_distance(net: &LaneNetwork, v: &Vehicle, ego: &Ego, range: f64) -> f64 {
     let mut offset = -v.s;
     for &lane in &v.path {
         let line = &net.lane(lane).line;
-        for seg in 0..line.points.len() - 1 {
-            let (s0, s1) = (offset + line.cum[seg], offset + line.cum[seg + 1]);
+        for seg in 0..line.point_count() - 1 {
+            let (s0, s1) = (offset + line.vertices[seg].cum, offset + line.vertices[seg + 1].cum);
             if s1 <= 0.0 {
                 continue;
             }
             if s0.max(0.0) > range {
                 return f64::INFINITY;
             }
-            let a = if s0 < 0.0 { v.front } else { line.points[seg] };
-            let b = line.points[seg + 1];
+            let a = if s0 < 0.0 { v.front } else { line.point(seg) };
+            let b = line.point(seg + 1);
             if let Some(t) = first_hit(a, b, &corners, ego.center(), half_width) {
                 return travelled + t;
             }

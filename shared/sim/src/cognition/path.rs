@@ -18,8 +18,13 @@ pub fn lanes_ahead<'a>(net: &'a LaneNetwork, v: &'a Vehicle) -> impl Iterator<It
 }
 
 /// Along-path distance from the front bumper to the end of the known path.
-pub fn known_distance_ahead(net: &LaneNetwork, v: &Vehicle) -> f64 {
-    v.path.iter().map(|&l| net.lane(l).length()).sum::<f64>() - v.s
+pub fn known_distance_ahead(v: &Vehicle) -> f64 {
+    v.path_length - v.s
+}
+
+fn push_lane(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId) {
+    v.path.push(lane);
+    v.path_length += net.lane(lane).length();
 }
 
 /// Point (and height) at along-path offset `ds` from the front bumper; negative
@@ -56,7 +61,8 @@ pub fn extend_path(net: &LaneNetwork, policy: &BranchPolicy, v: &mut Vehicle) ->
         && route.index + 1 < route.lanes.len()
     {
         route.index += 1;
-        v.path.push(route.lanes[route.index]);
+        let lane = route.lanes[route.index];
+        push_lane(net, v, lane);
         return Ok(None);
     }
     let last = *v.path.last().expect("path is never empty");
@@ -64,12 +70,12 @@ pub fn extend_path(net: &LaneNetwork, policy: &BranchPolicy, v: &mut Vehicle) ->
     match options.len() {
         0 => Err(DeadEnd),
         1 => {
-            v.path.push(options[0]);
+            push_lane(net, v, options[0]);
             Ok(None)
         }
         _ => {
             let choice = policy.choose(last, options, &mut v.rng);
-            v.path.push(choice.to);
+            push_lane(net, v, choice.to);
             Ok(Some(choice))
         }
     }
@@ -106,10 +112,11 @@ pub fn advance_and_extend(
             }
         }
         v.s -= len;
+        v.path_length -= len;
         v.prev_lane = Some(v.path.remove(0));
     }
     let lookahead = needed_lookahead(v.speed, deceleration);
-    while v.path.len() < 3 || known_distance_ahead(net, v) < lookahead {
+    while v.path.len() < 3 || known_distance_ahead(v) < lookahead {
         match extend_path(net, policy, v) {
             Ok(choice) => decisions.extend(choice),
             Err(DeadEnd) => break,

@@ -38,6 +38,8 @@ pub struct RowInfo {
     pub on_intersection: bool,
     /// yieldingPriorityAtTrafficLight: before the junction at a red light.
     pub waiting_at_red: bool,
+    /// First point of the first junction lane (the approach it enters from).
+    pub entry: glam::DVec2,
 }
 
 impl RowInfo {
@@ -55,6 +57,7 @@ impl RowInfo {
             considered: offset <= window && !obstructed,
             on_intersection,
             waiting_at_red: !on_intersection && v.passability == LightColor::Red,
+            entry: net.lane(lane).line.point(0),
         }
     }
 
@@ -208,14 +211,9 @@ impl Ctx<'_, '_> {
     }
 
     fn same_side(&self, other: &RowInfo) -> bool {
-        match (Self::first_int_lane(&self.info), Self::first_int_lane(other)) {
-            (Some(a), Some(b)) => {
-                let pa = self.net().lane(a).line.points[0];
-                let pb = self.net().lane(b).line.points[0];
-                pa.distance(pb) < SAME_SIDE_RADIUS
-            }
-            _ => false,
-        }
+        self.info.first_int.is_some()
+            && other.first_int.is_some()
+            && self.info.entry.distance_squared(other.entry) < SAME_SIDE_RADIUS * SAME_SIDE_RADIUS
     }
 
     /// Right-hand traffic: priority to the vehicle on the right.
@@ -269,7 +267,7 @@ impl Ctx<'_, '_> {
         let current = self.net().lane(self.v.path[0]);
         match (current.stop_center, self.info.first_int) {
             (Some(c), _) => c,
-            (None, Some((_, lane))) => self.net().lane(lane).line.points[0],
+            (None, Some((_, lane))) => self.net().lane(lane).line.point(0),
             (None, None) => self.v.front,
         }
     }
@@ -344,7 +342,7 @@ impl Ctx<'_, '_> {
         let stop = if on_intersection {
             lane.stop_center.unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
         } else {
-            lane.stop_center.unwrap_or(lane.line.points[0])
+            lane.stop_center.unwrap_or(lane.line.point(0))
         };
         if self.v.yield_phase.is_yielding_due_to_rules() {
             if self.v.signed_distance(self.v.yield_point) < OVERRUN_TO_CANCEL {
@@ -384,8 +382,8 @@ impl Ctx<'_, '_> {
 /// The ego is on `lane`: within 2 m of one of its segments and within 30° of its direction.
 fn ego_on_lane(net: &LaneNetwork, lane: LaneId, position: DVec2, forward: DVec2) -> bool {
     let line = &net.lane(lane).line;
-    (0..line.points.len() - 1).any(|i| {
-        let (a, b) = (line.points[i], line.points[i + 1]);
+    (0..line.point_count() - 1).any(|i| {
+        let (a, b) = (line.point(i), line.point(i + 1));
         let ab = b - a;
         let len2 = ab.length_squared();
         if len2 < 1e-12 {

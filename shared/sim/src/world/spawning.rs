@@ -40,15 +40,17 @@ impl World {
         }
         // Group by spawn point (the lane start), in first-insertion order.
         let mut groups: Vec<(LaneId, Vec<usize>)> = Vec::new();
+        let mut group_of: rustc_hash::FxHashMap<LaneId, usize> = rustc_hash::FxHashMap::default();
         for (k, (_, p)) in proposals.iter().enumerate() {
-            match groups.iter_mut().find(|g| g.0 == p.lane) {
-                Some(g) => g.1.push(k),
-                None => groups.push((p.lane, vec![k])),
-            }
+            let g = *group_of.entry(p.lane).or_insert_with(|| {
+                groups.push((p.lane, Vec::new()));
+                groups.len() - 1
+            });
+            groups[g].1.push(k);
         }
         let mut spawned_here: Vec<(DVec2, f64)> = Vec::new();
         for (lane, members) in groups {
-            let start = self.net.lane(lane).line.points[0];
+            let start = self.net.lane(lane).line.point(0);
             if let Some(ego) = &self.ego
                 && ego.position().distance(start) < self.config.spawn_distance_to_ego
             {
@@ -67,6 +69,12 @@ impl World {
                 .expect("groups are never empty");
             self.spawn_stats.lost_priority += members.len() as u64 - 1;
             let (si, proposal) = &proposals[winner];
+            // The seed checks the cap after the space check; when already full the
+            // outcome is the same, so skip the space check (it only moves the count).
+            if self.vehicles.len() >= self.config.max_vehicles {
+                self.spawn_stats.max_vehicles += 1;
+                continue;
+            }
             if !self.is_spawnable(proposal.kind, lane, &spawned_here) {
                 self.spawn_stats.not_spawnable += 1;
                 continue;
@@ -117,7 +125,7 @@ impl World {
                 return false;
             }
         }
-        let start = l.line.points[0];
+        let start = l.line.point(0);
         if spawned_here.iter().any(|&(p, len)| p.distance(start) < len + kind.length) {
             return false;
         }
@@ -153,6 +161,7 @@ impl World {
             width: k.width,
             path: vec![lane],
             prev_lane: None,
+            path_length: self.net.lane(lane).length(),
             s,
             speed,
             acceleration: 0.0,
@@ -172,6 +181,7 @@ impl World {
             pose: Pose::default(),
             front: DVec2::ZERO,
             back: DVec2::ZERO,
+            heading: DVec2::X,
             turn_signal: Default::default(),
             should_despawn: false,
             despawn_reason: None,
