@@ -23,6 +23,11 @@ pub struct Vertex {
 pub struct Polyline {
     pub vertices: Vec<Vertex>,
     length: f64,
+    /// Inline copies for the common single-segment lane, so that per-tick code
+    /// on a straight lane never touches the vertex array.
+    start: Vertex,
+    end: Vertex,
+    straight: bool,
 }
 
 impl Polyline {
@@ -43,7 +48,8 @@ impl Polyline {
             }
             vertices.push(Vertex { point: points[i], z: heights[i], cum, heading, turn_cum: turn });
         }
-        Polyline { vertices, length: cum }
+        let (start, end) = (vertices[0], vertices[n - 1]);
+        Polyline { vertices, length: cum, start, end, straight: n == 2 }
     }
 
     pub fn length(&self) -> f64 {
@@ -55,7 +61,17 @@ impl Polyline {
     }
 
     pub fn point(&self, i: usize) -> DVec2 {
-        self.vertices[i].point
+        if i == 0 { self.start.point } else { self.vertices[i].point }
+    }
+
+    /// One straight segment.
+    pub fn is_straight(&self) -> bool {
+        self.straight
+    }
+
+    /// Heading of the first segment, radians.
+    pub fn start_heading(&self) -> f64 {
+        self.start.heading
     }
 
     pub fn points(&self) -> impl Iterator<Item = DVec2> + '_ {
@@ -79,8 +95,12 @@ impl Polyline {
 
     /// Point and height at arc length s; beyond the ends the end segments are extended.
     pub fn point_at(&self, s: f64) -> (DVec2, f64) {
-        let i = self.segment_at(s);
-        let (a, b) = (&self.vertices[i], &self.vertices[i + 1]);
+        let (a, b) = if self.straight {
+            (&self.start, &self.end)
+        } else {
+            let i = self.segment_at(s);
+            (&self.vertices[i], &self.vertices[i + 1])
+        };
         let seg = b.cum - a.cum;
         let t = if seg > 0.0 { (s - a.cum) / seg } else { 0.0 };
         (a.point.lerp(b.point, t), a.z + (b.z - a.z) * t.clamp(0.0, 1.0))

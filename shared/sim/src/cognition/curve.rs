@@ -21,6 +21,12 @@ pub fn is_turning(net: &LaneNetwork, v: &Vehicle) -> bool {
             break;
         }
         let line = &net.lane(lane).line;
+        if line.is_straight() {
+            total += angle_between(heading, line.start_heading());
+            heading = line.start_heading();
+            offset += line.length();
+            continue;
+        }
         // First segment still ahead of the front bumper, last one starting inside the window.
         let first = line.segment_at(-offset);
         let last = line.segment_at(CURVE_LOOKAHEAD - offset);

@@ -1,0 +1,106 @@
+//! Scenes for the behaviour tests: small maps written as JSON, a world around
+//! them, and checks shared by several tests.
+#![allow(dead_code)]
+
+use glam::DVec2;
+use serde_json::{Value, json};
+use trafficmesh_model::MapFile;
+use trafficmesh_sim::geometry::{box_corners, boxes_overlap};
+use trafficmesh_sim::{LaneNetwork, Vehicle, World, WorldConfig};
+
+/// A lane as JSON: name, waypoints, next lanes.
+pub fn lane(name: &str, points: &[[f64; 2]], next: &[&str]) -> Value {
+    json!({ "name": name, "waypoints": points, "next": next })
+}
+
+/// A map from lanes (and optional extra top-level fields). A disabled random
+/// simulator satisfies the start-up checklist unless `extra` sets simulators.
+pub fn map(lanes: Vec<Value>, extra: Value) -> MapFile {
+    let mut m = json!({
+        "lanes": lanes,
+        "traffic_simulators": [{ "kind": "random", "lanes": [lanes_first_name(&lanes)], "prefabs": ["Taxi"], "enabled": false }],
+    });
+    if let Value::Object(fields) = extra {
+        for (k, v) in fields {
+            m[k] = v;
+        }
+    }
+    serde_json::from_value(m).expect("test map deserialises")
+}
+
+fn lanes_first_name(lanes: &[Value]) -> String {
+    lanes[0]["name"].as_str().unwrap().to_string()
+}
+
+pub fn world(map: &MapFile, config: WorldConfig) -> World {
+    let net = LaneNetwork::build(map).unwrap_or_else(|p| panic!("invalid test map: {p:?}"));
+    World::new(net, config)
+}
+
+/// An eastbound road along y = 0: `approach` (0..200 m, stop line at 190 m, light
+/// group "L"), a junction lane (200..220) and an exit (220..600).
+pub fn signalised_road() -> MapFile {
+    let mut approach = lane("approach", &[[0.0, 0.0], [200.0, 0.0]], &["junction"]);
+    approach["stop_line"] = json!([[190.0, -1.75], [190.0, 1.75]]);
+    approach["traffic_light"] = json!("L");
+    let mut junction = lane("junction", &[[200.0, 0.0], [220.0, 0.0]], &["exit"]);
+    junction["intersection"] = json!(true);
+    map(
+        vec![approach, junction, lane("exit", &[[220.0, 0.0], [600.0, 0.0]], &[])],
+        json!({ "light_groups": [{ "name": "L", "program": { "green": 30, "yellow": 3, "red": 30 } }] }),
+    )
+}
+
+pub fn vehicle<'a>(world: &'a World, id: u64) -> &'a Vehicle {
+    world.vehicle(id).expect("vehicle exists")
+}
+
+/// Steps until `done` holds or `seconds` pass; returns whether it held.
+pub fn run_until(world: &mut World, seconds: f64, mut done: impl FnMut(&World) -> bool) -> bool {
+    let end = world.time() + seconds;
+    while world.time() < end {
+        world.step();
+        if done(world) {
+            return true;
+        }
+    }
+    false
+}
+
+pub fn run_for(world: &mut World, seconds: f64) {
+    run_until(world, seconds, |_| false);
+}
+
+/// The vehicle's footprint, shrunk by `margin` on every side: the centreline
+/// model approximates a rigid body on curves to a few centimetres.
+pub fn footprint(v: &Vehicle, margin: f64) -> [DVec2; 4] {
+    let heading = DVec2::from_angle(v.pose.yaw);
+    let center = DVec2::new(v.pose.x, v.pose.y) + heading * (v.front_offset - v.length * 0.5);
+    box_corners(center, v.pose.yaw, v.length * 0.5 - margin, v.width * 0.5 - margin)
+}
+
+/// Pairs of vehicles whose footprints overlap (spatial hashing, not all pairs).
+pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
+    use std::collections::HashMap;
+    const CELL: f64 = 10.0;
+    let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (i, v) in vehicles.iter().enumerate() {
+        let key = ((v.pose.x / CELL).floor() as i64, (v.pose.y / CELL).floor() as i64);
+        cells.entry(key).or_default().push(i);
+    }
+    let mut pairs = Vec::new();
+    for (i, v) in vehicles.iter().enumerate() {
+        let (cx, cy) = ((v.pose.x / CELL).floor() as i64, (v.pose.y / CELL).floor() as i64);
+        let a = footprint(v, margin);
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for &j in cells.get(&(cx + dx, cy + dy)).map(Vec::as_slice).unwrap_or(&[]) {
+                    if j > i && boxes_overlap(&a, &footprint(&vehicles[j], margin)) {
+                        pairs.push((v.id, vehicles[j].id));
+                    }
+                }
+            }
+        }
+    }
+    pairs
+}
