@@ -1,9 +1,9 @@
 //! Control: speed ramps toward the mode's target, then the pose along the path.
 //!
-//! The vehicle keeps to its lane's centreline: its progress is an arc length, and
-//! its heading points from the rear axle to the front bumper, both on the path
-//! (a pure-pursuit steer toward the path point one wheelbase ahead, without the
-//! lateral error of AWSIM's yaw-rate integration).
+//! The vehicle keeps to its lane's centreline: its progress is an arc length and
+//! it steers toward the path ahead so that both bumpers stay on the path (AWSIM
+//! integrates a yaw rate aimed at the next waypoint instead, which leaves a
+//! lateral error on curves).
 
 use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource, SpeedMode};
 
@@ -45,18 +45,21 @@ pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: 
     v.trip.distance += v.speed * dt;
 }
 
-/// Recomputes pose, front and back points from the arc position.
+/// Recomputes pose, front and back points from the arc position. Both bumpers
+/// sit on the path and the body is the chord between them, so a long vehicle
+/// cuts a curve slightly on the inside instead of swinging its tail into the
+/// next lane; the origin (rear axle) lies on that chord.
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
-    let (front, _) = point_on_path(net, v, 0.0);
-    let (axle, z) = point_on_path(net, v, -v.front_offset);
-    let heading = front - axle;
-    let length = heading.length();
+    let (front, z_front) = point_on_path(net, v, 0.0);
+    let (back, z_back) = point_on_path(net, v, -v.length);
+    let body = front - back;
+    let length = body.length();
     if length > 1e-6 {
-        v.heading = heading / length;
+        v.heading = body / length;
     }
+    let axle = front - v.heading * v.front_offset;
     let yaw = v.heading.y.atan2(v.heading.x);
-    v.pose = Pose { x: axle.x, y: axle.y, z, yaw };
+    v.pose = Pose { x: axle.x, y: axle.y, z: 0.5 * (z_front + z_back), yaw };
     v.front = front;
-    // The back bumper only feeds the right-of-way side tests: the body's axis is enough.
-    v.back = axle - v.heading * (v.length - v.front_offset);
+    v.back = back;
 }

@@ -85,7 +85,9 @@ impl World {
             }
             let kind = &self.net.kinds[proposal.kind];
             spawned_here.push((start, kind.length));
-            self.register(proposal.kind, lane, kind.front, 0.0, proposal.route.clone());
+            // The whole body on the spawn lane: rear bumper at its start (AWSIM puts the
+            // rear axle there, which leaves a long overhang in the junction behind).
+            self.register(proposal.kind, lane, kind.length, 0.0, proposal.route.clone());
             self.last_spawn[lane as usize] = self.time;
             if members.len() > 1 {
                 for &k in &members {
@@ -102,7 +104,7 @@ impl World {
     pub(super) fn is_spawnable(&self, kind: usize, lane: LaneId, spawned_here: &[(DVec2, f64)]) -> bool {
         let kind = &self.net.kinds[kind];
         let l = self.net.lane(lane);
-        let (rear, front) = (kind.front - kind.length, kind.front);
+        let (rear, front) = (0.0, kind.length);
         let overlaps = |r: f64, f: f64| r < front + CLEARANCE && f > rear - CLEARANCE;
         if self.index.on_lane(lane).iter().any(|o| overlaps(o.rear, o.front)) {
             return false;
@@ -131,7 +133,7 @@ impl World {
         }
         if let Some(ego) = &self.ego {
             let dir = l.line.direction(0);
-            let center = start + dir * (kind.front - kind.length * 0.5);
+            let center = start + dir * (kind.length * 0.5);
             let yaw = dir.y.atan2(dir.x);
             let corners = box_corners(center, yaw, kind.length * 0.5 + CLEARANCE, kind.width * 0.5);
             if boxes_overlap(&corners, &ego.corners()) {
