@@ -6,17 +6,32 @@ use std::process::{Command, Output};
 use serde_json::Value;
 
 fn trafficmesh(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_trafficmesh")).args(args).output().expect("the binary runs")
+    Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
 }
 
 fn repo_file(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..").join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../..")
+        .join(rel)
 }
 
 fn grid(dir: &Path, size: usize) -> PathBuf {
     let path = dir.join(format!("grid{size}.map.json"));
-    let out = trafficmesh(&["gen-grid", "--size", &size.to_string(), "--out", path.to_str().unwrap()]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = trafficmesh(&[
+        "gen-grid",
+        "--size",
+        &size.to_string(),
+        "--out",
+        path.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     path
 }
 
@@ -24,7 +39,11 @@ fn sim_json(map: &Path, extra: &[&str]) -> Value {
     let mut args = vec!["sim", "--map", map.to_str().unwrap(), "--json"];
     args.extend_from_slice(extra);
     let out = trafficmesh(&args);
-    assert!(out.status.success(), "sim failed: {}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "sim failed: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
 }
 
@@ -33,10 +52,25 @@ fn same_seed_same_trajectories_whatever_the_thread_count_and_another_seed_differ
     let dir = tempfile::tempdir().unwrap();
     let map = grid(dir.path(), 3);
     let run = |seed: &str, threads: &str| {
-        sim_json(&map, &["--duration", "120", "--seed", seed, "--threads", threads, "--max-vehicles", "150"])
+        sim_json(
+            &map,
+            &[
+                "--duration",
+                "120",
+                "--seed",
+                seed,
+                "--threads",
+                threads,
+                "--max-vehicles",
+                "150",
+            ],
+        )
     };
     let (one, two, other) = (run("5", "1"), run("5", "2"), run("6", "2"));
-    assert!(one["vehicle_steps"].as_u64().unwrap() > 100_000, "too little traffic to compare: {one}");
+    assert!(
+        one["vehicle_steps"].as_u64().unwrap() > 100_000,
+        "too little traffic to compare: {one}"
+    );
     assert_eq!(one["trajectory_hash"], two["trajectory_hash"]);
     assert_eq!(one["vehicle_steps"], two["vehicle_steps"]);
     assert_ne!(one["trajectory_hash"], other["trajectory_hash"]);
@@ -44,12 +78,27 @@ fn same_seed_same_trajectories_whatever_the_thread_count_and_another_seed_differ
 
 #[test]
 fn json_summary_has_the_documented_fields() {
-    let v = sim_json(&repo_file("configs/maps/four_way.map.json"), &["--duration", "60"]);
-    for key in ["vehicle_steps", "vehicle_steps_per_sec", "ticks", "mean_vehicles", "max_vehicles", "spawned", "despawned", "trajectory_hash"] {
+    let v = sim_json(
+        &repo_file("configs/maps/four_way.map.json"),
+        &["--duration", "60"],
+    );
+    for key in [
+        "vehicle_steps",
+        "vehicle_steps_per_sec",
+        "ticks",
+        "mean_vehicles",
+        "max_vehicles",
+        "spawned",
+        "despawned",
+        "trajectory_hash",
+    ] {
         assert!(v.get(key).is_some(), "missing {key} in {v}");
     }
     assert_eq!(v["ticks"], 3000);
-    assert!(v["max_vehicles"].as_u64().unwrap() <= 40, "default maxVehicleCount is 40: {v}");
+    assert!(
+        v["max_vehicles"].as_u64().unwrap() <= 40,
+        "default maxVehicleCount is 40: {v}"
+    );
 }
 
 #[test]
@@ -58,27 +107,57 @@ fn sim_writes_trips_branch_csv_and_final_spawn_config() {
     let out = dir.path().join("out");
     let v = sim_json(
         &repo_file("configs/maps/four_way.map.json"),
-        &["--duration", "300", "--spawn-config", repo_file("configs/traffic_spawn.json").to_str().unwrap(), "--out", out.to_str().unwrap()],
+        &[
+            "--duration",
+            "300",
+            "--spawn-config",
+            repo_file("configs/traffic_spawn.json").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
     );
     let trips = std::fs::read_to_string(out.join("trips.csv")).unwrap();
     let mut rows = trips.lines();
-    assert_eq!(rows.next(), Some("id,kind,spawn_time,despawn_time,distance_m,stops,time_stopped_s,end_reason"));
-    assert_eq!(rows.count() as u64, v["spawned"].as_u64().unwrap(), "one trip row per spawned vehicle");
+    assert_eq!(
+        rows.next(),
+        Some("id,kind,spawn_time,despawn_time,distance_m,stops,time_stopped_s,end_reason")
+    );
+    assert_eq!(
+        rows.count() as u64,
+        v["spawned"].as_u64().unwrap(),
+        "one trip row per spawned vehicle"
+    );
 
     let branches = std::fs::read_to_string(out.join("traffic_branch_decisions.csv")).unwrap();
     assert!(branches.starts_with("from_lane,to_lane,selection_mode,decision_count,total_from_lane,total_from_lane_mode,observed_ratio_from_lane,observed_ratio_from_lane_mode,avg_configured_weight,avg_effective_probability\n"));
-    let total: u64 = branches.lines().skip(1).map(|l| l.split(',').nth(3).unwrap().parse::<u64>().unwrap()).sum();
+    let total: u64 = branches
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(3).unwrap().parse::<u64>().unwrap())
+        .sum();
     assert_eq!(total, v["branch_decisions"].as_u64().unwrap());
-    assert!(branches.contains(",weighted,") && branches.contains(",uniform_no_matching_weights,"), "{branches}");
+    assert!(
+        branches.contains(",weighted,") && branches.contains(",uniform_no_matching_weights,"),
+        "{branches}"
+    );
 
-    let saved: Value = serde_json::from_str(&std::fs::read_to_string(out.join("traffic_spawn.json")).unwrap()).unwrap();
-    let input: Value = serde_json::from_str(&std::fs::read_to_string(repo_file("configs/traffic_spawn.json")).unwrap()).unwrap();
+    let saved: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("traffic_spawn.json")).unwrap())
+            .unwrap();
+    let input: Value = serde_json::from_str(
+        &std::fs::read_to_string(repo_file("configs/traffic_spawn.json")).unwrap(),
+    )
+    .unwrap();
     assert_eq!(saved, input);
 }
 
 fn expect_usage_error(args: &[&str], needles: &[&str]) {
     let out = trafficmesh(args);
-    assert_eq!(out.status.code(), Some(2), "expected exit code 2 for {args:?}");
+    assert_eq!(
+        out.status.code(),
+        Some(2),
+        "expected exit code 2 for {args:?}"
+    );
     let stderr = String::from_utf8_lossy(&out.stderr);
     for needle in needles {
         assert!(stderr.contains(needle), "{needle:?} not in: {stderr}");
@@ -100,14 +179,50 @@ fn malformed_map_is_rejected_naming_field_and_lane() {
             "traffic_simulators": [{"kind": "random", "lanes": ["In"], "prefabs": ["Taxi"]}]}"#,
     );
     expect_usage_error(
-        &["sim", "--map", unknown_next.to_str().unwrap(), "--duration", "1"],
-        &["lane 'In'", "field 'next'", "unknown lane 'Nowhere'", "lane 'X'", "field 'width'"],
+        &[
+            "sim",
+            "--map",
+            unknown_next.to_str().unwrap(),
+            "--duration",
+            "1",
+        ],
+        &[
+            "lane 'In'",
+            "field 'next'",
+            "unknown lane 'Nowhere'",
+            "lane 'X'",
+            "field 'width'",
+        ],
     );
-    let wrong_type = write("b.json", r#"{"lanes": [{"name": "Main", "waypoints": [[0,0],[50,0]], "speed_limit": "fast"}]}"#);
-    expect_usage_error(&["sim", "--map", wrong_type.to_str().unwrap(), "--duration", "1"], &["lane 'Main'", "speed_limit"]);
+    let wrong_type = write(
+        "b.json",
+        r#"{"lanes": [{"name": "Main", "waypoints": [[0,0],[50,0]], "speed_limit": "fast"}]}"#,
+    );
+    expect_usage_error(
+        &[
+            "sim",
+            "--map",
+            wrong_type.to_str().unwrap(),
+            "--duration",
+            "1",
+        ],
+        &["lane 'Main'", "speed_limit"],
+    );
     let truncated = write("c.json", r#"{"lanes": [{"name": "Main", "waypoi"#);
-    expect_usage_error(&["sim", "--map", truncated.to_str().unwrap(), "--duration", "1"], &["not valid JSON", "line 1"]);
-    expect_usage_error(&["sim", "--map", "/nonexistent/map.json", "--duration", "1"], &["/nonexistent/map.json", "cannot read"]);
+    expect_usage_error(
+        &[
+            "sim",
+            "--map",
+            truncated.to_str().unwrap(),
+            "--duration",
+            "1",
+        ],
+        &["not valid JSON", "line 1"],
+    );
+    expect_usage_error(
+        &["sim", "--map", "/nonexistent/map.json", "--duration", "1"],
+        &["/nonexistent/map.json", "cannot read"],
+    );
     expect_usage_error(&["sim", "--duration", "1"], &["--map"]);
 }
 
@@ -123,12 +238,37 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
     )
     .unwrap();
     expect_usage_error(
-        &["sim", "--map", map.to_str().unwrap(), "--duration", "1", "--spawn-config", cfg.to_str().unwrap()],
-        &["lane 'j0_0_in_n0'", "spawnsPerMinute", "fromLane 'J0_0_in_S0'", "unknown lane 'Ghost'"],
+        &[
+            "sim",
+            "--map",
+            map.to_str().unwrap(),
+            "--duration",
+            "1",
+            "--spawn-config",
+            cfg.to_str().unwrap(),
+        ],
+        &[
+            "lane 'j0_0_in_n0'",
+            "spawnsPerMinute",
+            "fromLane 'J0_0_in_S0'",
+            "unknown lane 'Ghost'",
+        ],
     );
-    std::fs::write(&cfg, r#"{"spawnRates": [{"lane": "J0_0_in_N0", "spawnsPerMinute": "six"}]}"#).unwrap();
+    std::fs::write(
+        &cfg,
+        r#"{"spawnRates": [{"lane": "J0_0_in_N0", "spawnsPerMinute": "six"}]}"#,
+    )
+    .unwrap();
     expect_usage_error(
-        &["sim", "--map", map.to_str().unwrap(), "--duration", "1", "--spawn-config", cfg.to_str().unwrap()],
+        &[
+            "sim",
+            "--map",
+            map.to_str().unwrap(),
+            "--duration",
+            "1",
+            "--spawn-config",
+            cfg.to_str().unwrap(),
+        ],
         &["lane 'J0_0_in_N0'", "spawnsPerMinute"],
     );
 }
@@ -136,7 +276,21 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
 #[test]
 fn bad_numbers_on_the_command_line_are_rejected() {
     let map = repo_file("configs/maps/four_way.map.json");
-    expect_usage_error(&["sim", "--map", map.to_str().unwrap(), "--duration", "-5"], &["--duration"]);
-    expect_usage_error(&["sim", "--map", map.to_str().unwrap(), "--duration", "10", "--dt", "0"], &["--dt"]);
+    expect_usage_error(
+        &["sim", "--map", map.to_str().unwrap(), "--duration", "-5"],
+        &["--duration"],
+    );
+    expect_usage_error(
+        &[
+            "sim",
+            "--map",
+            map.to_str().unwrap(),
+            "--duration",
+            "10",
+            "--dt",
+            "0",
+        ],
+        &["--dt"],
+    );
     expect_usage_error(&["gen-grid", "--size", "0"], &["--size"]);
 }

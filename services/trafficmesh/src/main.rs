@@ -9,7 +9,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "trafficmesh", version, about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies")]
+#[command(
+    name = "trafficmesh",
+    version,
+    about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,

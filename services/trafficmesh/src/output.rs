@@ -10,7 +10,16 @@ use trafficmesh_sim::{TripRecord, World};
 /// (empty despawn_time, end_reason `running`).
 pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Result<()> {
     let mut w = csv::Writer::from_writer(Vec::new());
-    w.write_record(["id", "kind", "spawn_time", "despawn_time", "distance_m", "stops", "time_stopped_s", "end_reason"])?;
+    w.write_record([
+        "id",
+        "kind",
+        "spawn_time",
+        "despawn_time",
+        "distance_m",
+        "stops",
+        "time_stopped_s",
+        "end_reason",
+    ])?;
     for t in finished {
         w.write_record([
             t.id.to_string(),
@@ -44,7 +53,9 @@ pub fn print_summary<T: Serialize>(summary: &T) -> Result<()> {
     if let serde_json::Value::Object(fields) = serde_json::to_value(summary)? {
         for (k, v) in fields {
             match v {
-                serde_json::Value::Number(n) if n.is_f64() => println!("{k:>22}: {:.3}", n.as_f64().unwrap_or_default()),
+                serde_json::Value::Number(n) if n.is_f64() => {
+                    println!("{k:>22}: {:.3}", n.as_f64().unwrap_or_default())
+                }
                 serde_json::Value::String(s) => println!("{k:>22}: {s}"),
                 other => println!("{k:>22}: {other}"),
             }

@@ -11,26 +11,44 @@ use trafficmesh_model::{MapFile, MapProblem, TrafficSpawnConfig};
 #[derive(Debug, Error)]
 pub enum FileError {
     #[error("{path}: cannot read: {source}")]
-    Read { path: PathBuf, source: std::io::Error },
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: cannot write: {source}")]
-    Write { path: PathBuf, source: std::io::Error },
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
     #[error("{path}: not valid JSON: {message}")]
     Syntax { path: PathBuf, message: String },
     #[error("{path}: {location}: {message}")]
-    Field { path: PathBuf, location: String, message: String },
+    Field {
+        path: PathBuf,
+        location: String,
+        message: String,
+    },
     #[error("{path}: {} problem(s):\n  {}", .problems.len(), .problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n  "))]
-    Invalid { path: PathBuf, problems: Vec<MapProblem> },
+    Invalid {
+        path: PathBuf,
+        problems: Vec<MapProblem>,
+    },
 }
 
 fn read(path: &Path) -> Result<String, FileError> {
-    fs::read_to_string(path).map_err(|source| FileError::Read { path: path.to_owned(), source })
+    fs::read_to_string(path).map_err(|source| FileError::Read {
+        path: path.to_owned(),
+        source,
+    })
 }
 
 /// Deserialises with the JSON path of a type error, and names the element the
 /// path points into (`lanes[3]` becomes `lane 'N_in_1' (lanes[3])`).
 fn parse<T: DeserializeOwned>(path: &Path, text: &str) -> Result<T, FileError> {
-    let value: serde_json::Value = serde_json::from_str(text)
-        .map_err(|e| FileError::Syntax { path: path.to_owned(), message: e.to_string() })?;
+    let value: serde_json::Value = serde_json::from_str(text).map_err(|e| FileError::Syntax {
+        path: path.to_owned(),
+        message: e.to_string(),
+    })?;
     serde_path_to_error::deserialize(&value).map_err(|e| {
         let json_path = e.path().to_string();
         FileError::Field {
@@ -54,12 +72,18 @@ fn describe_location(value: &serde_json::Value, json_path: &str) -> String {
         .ok()
         .and_then(|i| value.get(list)?.get(i))
         .and_then(|el| {
-            ["name", "lane", "fromLane"]
-                .iter()
-                .find_map(|k| el.get(*k).and_then(|n| n.as_str()).map(|n| (*k, n.to_string())))
+            ["name", "lane", "fromLane"].iter().find_map(|k| {
+                el.get(*k)
+                    .and_then(|n| n.as_str())
+                    .map(|n| (*k, n.to_string()))
+            })
         });
     let field = rest.trim_start_matches('.');
-    let field = if field.is_empty() { String::new() } else { format!(", field '{field}'") };
+    let field = if field.is_empty() {
+        String::new()
+    } else {
+        format!(", field '{field}'")
+    };
     match element {
         Some((_, name)) => format!("{} '{name}' ({head}]){field}", singular(list)),
         None => format!("{head}]{field}"),
@@ -80,8 +104,10 @@ fn singular(list: &str) -> &str {
 /// Parses and validates a native map.
 pub fn parse_map(path: &Path, text: &str) -> Result<MapFile, FileError> {
     let map: MapFile = parse(path, text)?;
-    map.validate()
-        .map_err(|problems| FileError::Invalid { path: path.to_owned(), problems })?;
+    map.validate().map_err(|problems| FileError::Invalid {
+        path: path.to_owned(),
+        problems,
+    })?;
     Ok(map)
 }
 
@@ -106,7 +132,10 @@ pub fn save_spawn_config(path: &Path, config: &TrafficSpawnConfig) -> Result<(),
     if path.exists() {
         let mut backup = path.as_os_str().to_owned();
         backup.push(".bak");
-        fs::copy(path, PathBuf::from(backup)).map_err(|source| FileError::Write { path: path.to_owned(), source })?;
+        fs::copy(path, PathBuf::from(backup)).map_err(|source| FileError::Write {
+            path: path.to_owned(),
+            source,
+        })?;
     }
     write_atomic(path, text.as_bytes())
 }
@@ -114,9 +143,18 @@ pub fn save_spawn_config(path: &Path, config: &TrafficSpawnConfig) -> Result<(),
 /// Writes to a temporary file beside `path`, syncs it, then renames it over
 /// `path`: a reader sees the old file or the new one, never half of one.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), FileError> {
-    let err = |source| FileError::Write { path: path.to_owned(), source };
-    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let err = |source| FileError::Write {
+        path: path.to_owned(),
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
     let result = (|| {
         let mut file = fs::File::create(&tmp)?;
@@ -138,7 +176,9 @@ mod tests {
     fn type_error_names_lane_and_field() {
         let text = r#"{"lanes": [{"name": "A", "waypoints": [[0,0],[10,0]]},
                                  {"name": "B", "waypoints": [[10,0],[20,0]], "width": "wide"}]}"#;
-        let err = parse_map(Path::new("m.json"), text).unwrap_err().to_string();
+        let err = parse_map(Path::new("m.json"), text)
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("lane 'B'") && err.contains("width"), "{err}");
     }
 
@@ -148,12 +188,19 @@ mod tests {
         let path = dir.path().join("traffic_spawn.json");
         let mut cfg = TrafficSpawnConfig::default();
         save_spawn_config(&path, &cfg).unwrap();
-        cfg.spawn_rates.push(trafficmesh_model::SpawnRate { lane: "A".into(), spawns_per_minute: 6.0 });
+        cfg.spawn_rates.push(trafficmesh_model::SpawnRate {
+            lane: "A".into(),
+            spawns_per_minute: 6.0,
+        });
         save_spawn_config(&path, &cfg).unwrap();
         assert_eq!(load_spawn_config(&path).unwrap(), cfg);
         let backup = load_spawn_config(&dir.path().join("traffic_spawn.json.bak")).unwrap();
         assert!(backup.spawn_rates.is_empty());
-        let leftovers: Vec<_> = fs::read_dir(dir.path()).unwrap().filter_map(|e| e.ok()).filter(|e| e.file_name().to_string_lossy().contains(".tmp-")).collect();
+        let leftovers: Vec<_> = fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().contains(".tmp-"))
+            .collect();
         assert!(leftovers.is_empty());
     }
 }

@@ -10,11 +10,11 @@
 
 use std::f64::consts::FRAC_PI_2;
 
-use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MAP_FORMAT, MapFile, Point, SimulatorDef,
-    StopPointDef, ZebraConfigDef,
-};
 use trafficmesh_model::TurnDirection;
+use trafficmesh_model::map::{
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MAP_FORMAT, MapFile, Point,
+    SimulatorDef, StopPointDef, ZebraConfigDef,
+};
 
 pub const LANE_WIDTH: f64 = 3.5;
 /// Distance from a junction centre to where approach lanes end.
@@ -39,7 +39,13 @@ pub struct GridOptions {
 
 impl Default for GridOptions {
     fn default() -> Self {
-        GridOptions { size: 5, block: 200.0, boundary: 100.0, crosswalks: false, speed_limit: 13.89 }
+        GridOptions {
+            size: 5,
+            block: 200.0,
+            boundary: 100.0,
+            crosswalks: false,
+            speed_limit: 13.89,
+        }
     }
 }
 
@@ -145,7 +151,11 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
         let (dx, dy) = d.unit();
         (i as isize + dx as isize, j as isize + dy as isize)
     };
-    let stop_at = if o.crosswalks { STOP_LINE_WITH_CROSSWALK } else { JUNCTION_RADIUS + 1.0 };
+    let stop_at = if o.crosswalks {
+        STOP_LINE_WITH_CROSSWALK
+    } else {
+        JUNCTION_RADIUS + 1.0
+    };
     let mut lanes: Vec<LaneDef> = Vec::new();
     let mut light_groups = Vec::new();
     let mut crosswalks = Vec::new();
@@ -158,7 +168,12 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
                 let offset_s = if ns { 0.0 } else { 30.0 };
                 light_groups.push(LightGroupDef {
                     name: format!("{jn}_{g}"),
-                    program: LightProgram { green: 25.0, yellow: 3.0, red: 32.0, offset: offset_s },
+                    program: LightProgram {
+                        green: 25.0,
+                        yellow: 3.0,
+                        red: 32.0,
+                        offset: offset_s,
+                    },
                 });
             }
             for d in DIRS {
@@ -167,29 +182,55 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
                 // Approach lanes heading d into this junction, from the neighbour behind
                 // or from the grid's edge.
                 let (bi, bj) = neighbour(i, j, d.opposite());
-                let from_far = if inside(bi, bj) { o.block - JUNCTION_RADIUS } else { JUNCTION_RADIUS + o.boundary };
+                let from_far = if inside(bi, bj) {
+                    o.block - JUNCTION_RADIUS
+                } else {
+                    JUNCTION_RADIUS + o.boundary
+                };
                 for k in 0..2 {
                     let off = offset(k);
-                    let start = (c.0 - ux * from_far + rx * off, c.1 - uy * from_far + ry * off);
-                    let end = (c.0 - ux * JUNCTION_RADIUS + rx * off, c.1 - uy * JUNCTION_RADIUS + ry * off);
-                    let mut l = lane(approach(i, j, d, k), vec![p(start.0, start.1), p(end.0, end.1)], o.speed_limit);
+                    let start = (
+                        c.0 - ux * from_far + rx * off,
+                        c.1 - uy * from_far + ry * off,
+                    );
+                    let end = (
+                        c.0 - ux * JUNCTION_RADIUS + rx * off,
+                        c.1 - uy * JUNCTION_RADIUS + ry * off,
+                    );
+                    let mut l = lane(
+                        approach(i, j, d, k),
+                        vec![p(start.0, start.1), p(end.0, end.1)],
+                        o.speed_limit,
+                    );
                     let sl = (c.0 - ux * stop_at, c.1 - uy * stop_at);
                     let half = LANE_WIDTH * 0.5;
                     l.stop_line = Some([
                         p(sl.0 + rx * (off - half), sl.1 + ry * (off - half)),
                         p(sl.0 + rx * (off + half), sl.1 + ry * (off + half)),
                     ]);
-                    l.traffic_light = Some(format!("{jn}_{}", if d.is_north_south() { "NS" } else { "EW" }));
+                    l.traffic_light = Some(format!(
+                        "{jn}_{}",
+                        if d.is_north_south() { "NS" } else { "EW" }
+                    ));
                     let moves: &[(char, Dir, TurnDirection)] = if k == 0 {
-                        &[('L', d.left(), TurnDirection::Left), ('S', d, TurnDirection::Straight)]
+                        &[
+                            ('L', d.left(), TurnDirection::Left),
+                            ('S', d, TurnDirection::Straight),
+                        ]
                     } else {
-                        &[('S', d, TurnDirection::Straight), ('R', d.right(), TurnDirection::Right)]
+                        &[
+                            ('S', d, TurnDirection::Straight),
+                            ('R', d.right(), TurnDirection::Right),
+                        ]
                     };
                     for &(t, out, turn) in moves {
                         l.next.push(connector(i, j, d, k, t));
                         let (ox, oy) = out.unit();
                         let (orx, ory) = out.right_normal();
-                        let exit_start = (c.0 + ox * JUNCTION_RADIUS + orx * off, c.1 + oy * JUNCTION_RADIUS + ory * off);
+                        let exit_start = (
+                            c.0 + ox * JUNCTION_RADIUS + orx * off,
+                            c.1 + oy * JUNCTION_RADIUS + ory * off,
+                        );
                         let waypoints = if t == 'S' {
                             vec![p(end.0, end.1), p(exit_start.0, exit_start.1)]
                         } else {
@@ -221,9 +262,16 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
                 if !inside(ni, nj) {
                     for k in 0..2 {
                         let off = offset(k);
-                        let start = (c.0 + ux * JUNCTION_RADIUS + rx * off, c.1 + uy * JUNCTION_RADIUS + ry * off);
+                        let start = (
+                            c.0 + ux * JUNCTION_RADIUS + rx * off,
+                            c.1 + uy * JUNCTION_RADIUS + ry * off,
+                        );
                         let end = (start.0 + ux * o.boundary, start.1 + uy * o.boundary);
-                        lanes.push(lane(exit_road(i, j, d, k), vec![p(start.0, start.1), p(end.0, end.1)], o.speed_limit));
+                        lanes.push(lane(
+                            exit_road(i, j, d, k),
+                            vec![p(start.0, start.1), p(end.0, end.1)],
+                            o.speed_limit,
+                        ));
                     }
                 }
                 if o.crosswalks {
@@ -233,7 +281,11 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
         }
     }
     lanes.sort_by(|a, b| a.name.cmp(&b.name));
-    let spawn_lanes: Vec<String> = lanes.iter().filter(|l| !l.intersection).map(|l| l.name.clone()).collect();
+    let spawn_lanes: Vec<String> = lanes
+        .iter()
+        .filter(|l| !l.intersection)
+        .map(|l| l.name.clone())
+        .collect();
     let attempts = (spawn_lanes.len() / 40).max(1) as u32;
     MapFile {
         format: MAP_FORMAT.to_string(),
@@ -244,7 +296,12 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
             vec![ZebraConfigDef {
                 name: "pedestrians".into(),
                 allowed_prefabs: vec![],
-                allowed_root_name_substrings: vec!["Human".into(), "Pedestrian".into(), "Cyclist".into(), "Bicycle".into()],
+                allowed_root_name_substrings: vec![
+                    "Human".into(),
+                    "Pedestrian".into(),
+                    "Cyclist".into(),
+                    "Bicycle".into(),
+                ],
             }]
         } else {
             vec![]
@@ -252,7 +309,9 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
         crosswalks,
         traffic_simulators: vec![SimulatorDef::Random {
             lanes: spawn_lanes,
-            prefabs: ["Taxi", "Hatchback", "SmallCar", "Van", "Truck_2t"].map(String::from).to_vec(),
+            prefabs: ["Taxi", "Hatchback", "SmallCar", "Van", "Truck_2t"]
+                .map(String::from)
+                .to_vec(),
             maximum_spawns: 0,
             enabled: true,
             spawn_attempts_per_tick: attempts,
@@ -266,8 +325,14 @@ fn crosswalk(c: (f64, f64), d: Dir, jn: &str) -> CrosswalkDef {
     let (ux, uy) = d.unit();
     let (rx, ry) = d.right_normal();
     let center = (c.0 - ux * CROSSWALK_CENTER, c.1 - uy * CROSSWALK_CENTER);
-    let inbound = (c.0 - ux * STOP_LINE_WITH_CROSSWALK + rx * LANE_WIDTH, c.1 - uy * STOP_LINE_WITH_CROSSWALK + ry * LANE_WIDTH);
-    let outbound = (c.0 - ux * (JUNCTION_RADIUS - 1.0) - rx * LANE_WIDTH, c.1 - uy * (JUNCTION_RADIUS - 1.0) - ry * LANE_WIDTH);
+    let inbound = (
+        c.0 - ux * STOP_LINE_WITH_CROSSWALK + rx * LANE_WIDTH,
+        c.1 - uy * STOP_LINE_WITH_CROSSWALK + ry * LANE_WIDTH,
+    );
+    let outbound = (
+        c.0 - ux * (JUNCTION_RADIUS - 1.0) - rx * LANE_WIDTH,
+        c.1 - uy * (JUNCTION_RADIUS - 1.0) - ry * LANE_WIDTH,
+    );
     let heading = d.0 as f64 * 90.0;
     CrosswalkDef {
         name: format!("{jn}_crosswalk_{}", d.opposite().letter()),
@@ -277,8 +342,14 @@ fn crosswalk(c: (f64, f64), d: Dir, jn: &str) -> CrosswalkDef {
             yaw_deg: heading,
         },
         stop_points: vec![
-            StopPointDef { position: p(inbound.0, inbound.1), heading_deg: Some(heading) },
-            StopPointDef { position: p(outbound.0, outbound.1), heading_deg: Some(heading + 180.0) },
+            StopPointDef {
+                position: p(inbound.0, inbound.1),
+                heading_deg: Some(heading),
+            },
+            StopPointDef {
+                position: p(outbound.0, outbound.1),
+                heading_deg: Some(heading + 180.0),
+            },
         ],
         max_detection_distance: 40.0,
         forward_angle_tolerance_deg: 80.0,
@@ -295,7 +366,11 @@ mod tests {
     #[test]
     fn grid_is_valid_and_sized() {
         for size in [1, 2, 3] {
-            let map = grid_map(&GridOptions { size, crosswalks: true, ..GridOptions::default() });
+            let map = grid_map(&GridOptions {
+                size,
+                crosswalks: true,
+                ..GridOptions::default()
+            });
             map.validate().unwrap();
             // Per junction: 8 approach lanes and 16 connectors; 2 exit lanes per boundary side.
             assert_eq!(map.lanes.len(), size * size * 24 + 4 * size * 2);

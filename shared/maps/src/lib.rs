@@ -7,6 +7,7 @@ pub mod files;
 pub mod grid;
 
 pub use files::{
-    FileError, load_map, load_spawn_config, parse_map, parse_spawn_config, save_spawn_config, write_atomic,
+    FileError, load_map, load_spawn_config, parse_map, parse_spawn_config, save_spawn_config,
+    write_atomic,
 };
 pub use grid::{GridOptions, grid_map};

@@ -30,13 +30,12 @@ pub fn builtin_names() -> impl Iterator<Item = &'static str> {
 
 /// The built-in kind with this name (case-insensitive), if any.
 pub fn builtin_kind(name: &str) -> Option<VehicleKind> {
-    BUILTIN
-        .iter()
-        .find(|b| b.0.eq_ignore_ascii_case(name))
-        .map(|&(name, center_z, ext_x, ext_z)| VehicleKind {
+    BUILTIN.iter().find(|b| b.0.eq_ignore_ascii_case(name)).map(
+        |&(name, center_z, ext_x, ext_z)| VehicleKind {
             name: name.to_string(),
             front: center_z + ext_z,
             length: 2.0 * ext_z,
             width: 2.0 * ext_x,
-        })
+        },
+    )
 }

@@ -17,5 +17,7 @@ pub use map::{
     CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, MapProblem,
     SimulatorDef, ZebraConfigDef,
 };
-pub use spawn_config::{BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig};
+pub use spawn_config::{
+    BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig,
+};
 pub use vehicle_config::{NpcVehicleConfig, SpeedLimitSource};

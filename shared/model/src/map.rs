@@ -115,7 +115,9 @@ pub enum CrosswalkArea {
         #[serde(default)]
         yaw_deg: f64,
     },
-    Polygon { points: Vec<Point> },
+    Polygon {
+        points: Vec<Point>,
+    },
 }
 
 /// Where vehicles stop for an occupied crosswalk. `heading_deg`, when given, is the
@@ -258,7 +260,11 @@ pub struct MapProblem {
 
 impl fmt::Display for MapProblem {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}: field '{}': {}", self.element, self.field, self.message)
+        write!(
+            f,
+            "{}: field '{}': {}",
+            self.element, self.field, self.message
+        )
     }
 }
 
@@ -283,10 +289,18 @@ impl MapFile {
     pub fn validate(&self) -> Result<(), Vec<MapProblem>> {
         let mut p = Problems(Vec::new());
         if self.format != MAP_FORMAT {
-            p.add("map", "format", format!("expected \"{MAP_FORMAT}\", got \"{}\"", self.format));
+            p.add(
+                "map",
+                "format",
+                format!("expected \"{MAP_FORMAT}\", got \"{}\"", self.format),
+            );
         }
         if self.lanes.is_empty() {
-            p.add("map", "lanes", "the map has no lanes (the seed's TrafficLanes is empty)");
+            p.add(
+                "map",
+                "lanes",
+                "the map has no lanes (the seed's TrafficLanes is empty)",
+            );
         }
         let names = self.validate_lane_names(&mut p);
         self.validate_lanes(&names, &mut p);
@@ -311,7 +325,11 @@ impl MapFile {
             }
         }
         if !self.lanes.is_empty() && !self.lanes.iter().any(|l| l.intersection) {
-            p.add("map", "lanes", "no lane has \"intersection\": true; at least one is required");
+            p.add(
+                "map",
+                "lanes",
+                "no lane has \"intersection\": true; at least one is required",
+            );
         }
         names
     }
@@ -321,10 +339,18 @@ impl MapFile {
         for lane in &self.lanes {
             let el = format!("lane '{}'", lane.name);
             if lane.waypoints.len() < 2 {
-                p.add(&el, "waypoints", format!("needs at least 2 points, has {}", lane.waypoints.len()));
+                p.add(
+                    &el,
+                    "waypoints",
+                    format!("needs at least 2 points, has {}", lane.waypoints.len()),
+                );
             }
             if let Some(i) = lane.waypoints.iter().position(|w| !w.is_finite()) {
-                p.add(&el, "waypoints", format!("point {i} is not a finite number"));
+                p.add(
+                    &el,
+                    "waypoints",
+                    format!("point {i} is not a finite number"),
+                );
             } else if lane.waypoints.len() >= 2 {
                 let length: f64 = lane
                     .waypoints
@@ -336,7 +362,11 @@ impl MapFile {
                 }
             }
             if !positive(lane.width) {
-                p.add(&el, "width", format!("must be a positive number of metres, got {}", lane.width));
+                p.add(
+                    &el,
+                    "width",
+                    format!("must be a positive number of metres, got {}", lane.width),
+                );
             }
             if !positive(lane.speed_limit) {
                 p.add(
@@ -345,7 +375,11 @@ impl MapFile {
                     format!("must be a positive number of m/s, got {}", lane.speed_limit),
                 );
             }
-            for (field, list) in [("next", &lane.next), ("prev", &lane.prev), ("right_of_way", &lane.right_of_way)] {
+            for (field, list) in [
+                ("next", &lane.next),
+                ("prev", &lane.prev),
+                ("right_of_way", &lane.right_of_way),
+            ] {
                 for other in list {
                     if !names.contains_key(&other.to_lowercase()) {
                         p.add(&el, field, format!("unknown lane '{other}'"));
@@ -355,9 +389,16 @@ impl MapFile {
             if !lane.prev.is_empty() {
                 for prev in &lane.prev {
                     if let Some(&j) = names.get(&prev.to_lowercase())
-                        && !self.lanes[j].next.iter().any(|n| n.eq_ignore_ascii_case(&lane.name))
+                        && !self.lanes[j]
+                            .next
+                            .iter()
+                            .any(|n| n.eq_ignore_ascii_case(&lane.name))
                     {
-                        p.add(&el, "prev", format!("lists '{prev}', but '{prev}' does not list it in next"));
+                        p.add(
+                            &el,
+                            "prev",
+                            format!("lists '{prev}', but '{prev}' does not list it in next"),
+                        );
                     }
                 }
             }
@@ -382,9 +423,17 @@ impl MapFile {
                 p.add(&el, "name", "duplicate light group name");
             }
             let pr = &g.program;
-            for (field, v) in [("program.green", pr.green), ("program.yellow", pr.yellow), ("program.red", pr.red)] {
+            for (field, v) in [
+                ("program.green", pr.green),
+                ("program.yellow", pr.yellow),
+                ("program.red", pr.red),
+            ] {
                 if !(v.is_finite() && v >= 0.0) {
-                    p.add(&el, field, format!("must be a non-negative number of seconds, got {v}"));
+                    p.add(
+                        &el,
+                        field,
+                        format!("must be a non-negative number of seconds, got {v}"),
+                    );
                 }
             }
             if !pr.offset.is_finite() {
@@ -405,17 +454,29 @@ impl MapFile {
                 p.add(&el, "name", "duplicate crosswalk name");
             }
             match &c.area {
-                CrosswalkArea::Box { center, half_extents, yaw_deg } => {
+                CrosswalkArea::Box {
+                    center,
+                    half_extents,
+                    yaw_deg,
+                } => {
                     if !center.is_finite() || !yaw_deg.is_finite() {
                         p.add(&el, "area", "centre and yaw_deg must be finite numbers");
                     }
                     if !half_extents.iter().all(|&h| positive(h)) {
-                        p.add(&el, "area.half_extents", "both half extents must be positive");
+                        p.add(
+                            &el,
+                            "area.half_extents",
+                            "both half extents must be positive",
+                        );
                     }
                 }
                 CrosswalkArea::Polygon { points } => {
                     if points.len() < 3 || points.iter().any(|pt| !pt.is_finite()) {
-                        p.add(&el, "area.points", "a polygon needs at least 3 finite points");
+                        p.add(
+                            &el,
+                            "area.points",
+                            "a polygon needs at least 3 finite points",
+                        );
                     }
                 }
             }
@@ -423,13 +484,27 @@ impl MapFile {
                 p.add(&el, "stop_points", "a stop point is not a finite number");
             }
             if !positive(c.max_detection_distance) {
-                p.add(&el, "max_detection_distance", "must be a positive number of metres");
+                p.add(
+                    &el,
+                    "max_detection_distance",
+                    "must be a positive number of metres",
+                );
             }
-            if !(c.forward_angle_tolerance_deg.is_finite() && (0.0..=180.0).contains(&c.forward_angle_tolerance_deg)) {
-                p.add(&el, "forward_angle_tolerance_deg", "must be between 0 and 180 degrees");
+            if !(c.forward_angle_tolerance_deg.is_finite()
+                && (0.0..=180.0).contains(&c.forward_angle_tolerance_deg))
+            {
+                p.add(
+                    &el,
+                    "forward_angle_tolerance_deg",
+                    "must be between 0 and 180 degrees",
+                );
             }
             if !(c.stop_buffer.is_finite() && c.stop_buffer >= 0.0) {
-                p.add(&el, "stop_buffer", "must be a non-negative number of metres");
+                p.add(
+                    &el,
+                    "stop_buffer",
+                    "must be a non-negative number of metres",
+                );
             }
             if let Some(cfg) = &c.config
                 && !configs.contains(cfg.as_str())
@@ -449,7 +524,11 @@ impl MapFile {
         }
         for (i, sim) in self.traffic_simulators.iter().enumerate() {
             let el = format!("traffic_simulators[{i}]");
-            let field = if matches!(sim, SimulatorDef::Random { .. }) { "lanes" } else { "route" };
+            let field = if matches!(sim, SimulatorDef::Random { .. }) {
+                "lanes"
+            } else {
+                "route"
+            };
             if sim.lanes().is_empty() {
                 p.add(&el, field, "is empty");
             }
@@ -468,7 +547,14 @@ impl MapFile {
             for prefab in sim.prefabs() {
                 if builtin_kind(prefab).is_none() {
                     let known: Vec<&str> = crate::catalog::builtin_names().collect();
-                    p.add(&el, "prefabs", format!("unknown vehicle kind '{prefab}' (known: {})", known.join(", ")));
+                    p.add(
+                        &el,
+                        "prefabs",
+                        format!(
+                            "unknown vehicle kind '{prefab}' (known: {})",
+                            known.join(", ")
+                        ),
+                    );
                 }
             }
         }

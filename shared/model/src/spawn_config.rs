@@ -63,14 +63,20 @@ impl TrafficSpawnConfig {
         for (i, branch) in self.branch_weights.iter().enumerate() {
             let at = format!("branchWeights[{i}] (fromLane '{}')", branch.from_lane);
             if !lane_exists(&branch.from_lane) {
-                problems.push(format!("{at}: field 'fromLane': unknown lane '{}'", branch.from_lane));
+                problems.push(format!(
+                    "{at}: field 'fromLane': unknown lane '{}'",
+                    branch.from_lane
+                ));
             }
             if branch.next.is_empty() {
                 problems.push(format!("{at}: field 'next': is empty"));
             }
             for (j, next) in branch.next.iter().enumerate() {
                 if !lane_exists(&next.lane) {
-                    problems.push(format!("{at}: field 'next[{j}].lane': unknown lane '{}'", next.lane));
+                    problems.push(format!(
+                        "{at}: field 'next[{j}].lane': unknown lane '{}'",
+                        next.lane
+                    ));
                 }
                 if !(next.weight.is_finite() && next.weight >= 0.0) {
                     problems.push(format!(
@@ -80,6 +86,10 @@ impl TrafficSpawnConfig {
                 }
             }
         }
-        if problems.is_empty() { Ok(()) } else { Err(SpawnConfigError { problems }) }
+        if problems.is_empty() {
+            Ok(())
+        } else {
+            Err(SpawnConfigError { problems })
+        }
     }
 }

@@ -54,7 +54,9 @@ impl NpcVehicleConfig {
         ];
         for (name, value) in fields {
             if !(value.is_finite() && value > 0.0) {
-                return Err(format!("vehicle config: {name} must be a positive number, got {value}"));
+                return Err(format!(
+                    "vehicle config: {name} must be a positive number, got {value}"
+                ));
             }
         }
         Ok(())

@@ -59,7 +59,9 @@ impl BranchPolicy {
     pub fn from_config(net: &LaneNetwork, config: &TrafficSpawnConfig) -> Self {
         let mut weights: FxHashMap<LaneId, Vec<(LaneId, f64)>> = FxHashMap::default();
         for branch in &config.branch_weights {
-            let Some(from) = net.lane_id(&branch.from_lane) else { continue };
+            let Some(from) = net.lane_id(&branch.from_lane) else {
+                continue;
+            };
             let entry = weights.entry(from).or_default();
             for next in &branch.next {
                 if let Some(to) = net.lane_id(&next.lane)
@@ -76,14 +78,23 @@ impl BranchPolicy {
                 w.1 /= sum;
             }
         }
-        BranchPolicy { loaded: true, weights }
+        BranchPolicy {
+            loaded: true,
+            weights,
+        }
     }
 
     /// Chooses among `options` (two or more) leaving `from`.
     pub fn choose(&self, from: LaneId, options: &[LaneId], rng: &mut SimRng) -> BranchChoice {
         let uniform = |mode, rng: &mut SimRng, configured: &dyn Fn(LaneId) -> f64| {
             let to = options[rng.below(options.len())];
-            BranchChoice { from, to, mode, configured_weight: configured(to), probability: 1.0 / options.len() as f64 }
+            BranchChoice {
+                from,
+                to,
+                mode,
+                configured_weight: configured(to),
+                probability: 1.0 / options.len() as f64,
+            }
         };
         if !self.loaded {
             return uniform(SelectionMode::UniformNoConfig, rng, &|_| 0.0);
@@ -92,7 +103,11 @@ impl BranchPolicy {
             return uniform(SelectionMode::UniformNoMatchingWeights, rng, &|_| 0.0);
         };
         let configured = |to: LaneId| list.iter().find(|w| w.0 == to).map_or(0.0, |w| w.1);
-        let matching: Vec<(LaneId, f64)> = list.iter().copied().filter(|w| options.contains(&w.0)).collect();
+        let matching: Vec<(LaneId, f64)> = list
+            .iter()
+            .copied()
+            .filter(|w| options.contains(&w.0))
+            .collect();
         let total: f64 = matching.iter().map(|w| w.1).sum();
         if matching.is_empty() || total <= 0.0 {
             return uniform(SelectionMode::UniformNoMatchingWeights, rng, &configured);
@@ -140,7 +155,11 @@ impl BranchStats {
 
     /// Decisions from `from` to `to`, all modes.
     pub fn count(&self, from: LaneId, to: LaneId) -> u64 {
-        self.rows.iter().filter(|((f, t, _), _)| *f == from && *t == to).map(|(_, v)| v.count).sum()
+        self.rows
+            .iter()
+            .filter(|((f, t, _), _)| *f == from && *t == to)
+            .map(|(_, v)| v.count)
+            .sum()
     }
 
     pub fn total(&self) -> u64 {
@@ -159,7 +178,11 @@ impl BranchStats {
         let mut rows: Vec<_> = self.rows.iter().collect();
         rows.sort_by(|a, b| {
             let key = |r: &(&(LaneId, LaneId, SelectionMode), &Tally)| {
-                (net.lane(r.0.0).name.clone(), net.lane(r.0.1).name.clone(), r.0.2)
+                (
+                    net.lane(r.0.0).name.clone(),
+                    net.lane(r.0.1).name.clone(),
+                    r.0.2,
+                )
             };
             key(a).cmp(&key(b))
         });

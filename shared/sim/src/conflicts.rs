@@ -63,13 +63,20 @@ fn bounding_cells(lane: &Lane) -> impl Iterator<Item = (i64, i64)> {
         hi = hi.max(p);
     }
     let c = |v: f64| (v / GRID_CELL).floor() as i64;
-    let (x0, x1, y0, y1) = (c(lo.x - CONFLICT_DISTANCE), c(hi.x + CONFLICT_DISTANCE), c(lo.y - CONFLICT_DISTANCE), c(hi.y + CONFLICT_DISTANCE));
+    let (x0, x1, y0, y1) = (
+        c(lo.x - CONFLICT_DISTANCE),
+        c(hi.x + CONFLICT_DISTANCE),
+        c(lo.y - CONFLICT_DISTANCE),
+        c(hi.y + CONFLICT_DISTANCE),
+    );
     (x0..=x1).flat_map(move |x| (y0..=y1).map(move |y| (x, y)))
 }
 
 /// Fills every intersection lane's conflicts and junction id; returns the junction count.
 pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
-    let inter: Vec<usize> = (0..lanes.len()).filter(|&i| lanes[i].intersection).collect();
+    let inter: Vec<usize> = (0..lanes.len())
+        .filter(|&i| lanes[i].intersection)
+        .collect();
     let mut grid: FxHashMap<(i64, i64), Vec<usize>> = FxHashMap::default();
     for &i in &inter {
         for cell in bounding_cells(&lanes[i]) {
@@ -118,8 +125,22 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
             found.push((a0, a1, b0, b1, cos > std::f64::consts::FRAC_1_SQRT_2));
         }
         for (a0, a1, b0, b1, parallel) in found {
-            lanes[a].conflicts.push(Conflict { other: b as LaneId, a0, a1, b0, b1, parallel });
-            lanes[b].conflicts.push(Conflict { other: a as LaneId, a0: b0, a1: b1, b0: a0, b1: a1, parallel });
+            lanes[a].conflicts.push(Conflict {
+                other: b as LaneId,
+                a0,
+                a1,
+                b0,
+                b1,
+                parallel,
+            });
+            lanes[b].conflicts.push(Conflict {
+                other: a as LaneId,
+                a0: b0,
+                a1: b1,
+                b0: a0,
+                b1: a1,
+                parallel,
+            });
         }
         let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
         parent[ra.max(rb)] = ra.min(rb);
@@ -143,7 +164,8 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
         lanes[i].junction = Some(j);
     }
     for lane in lanes.iter_mut() {
-        lane.conflicts.sort_by(|x, y| x.a0.total_cmp(&y.a0).then(x.other.cmp(&y.other)));
+        lane.conflicts
+            .sort_by(|x, y| x.a0.total_cmp(&y.a0).then(x.other.cmp(&y.other)));
     }
     ids.len() as u32
 }

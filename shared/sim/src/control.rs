@@ -32,7 +32,11 @@ pub fn speed_limit(net: &LaneNetwork, v: &Vehicle, c: &NpcVehicleConfig) -> f64 
 }
 
 fn move_towards(current: f64, target: f64, max_delta: f64) -> f64 {
-    if (target - current).abs() <= max_delta { target } else { current + max_delta * (target - current).signum() }
+    if (target - current).abs() <= max_delta {
+        target
+    } else {
+        current + max_delta * (target - current).signum()
+    }
 }
 
 /// Updates speed and arc position.
@@ -59,7 +63,12 @@ pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
     }
     let axle = front - v.heading * v.front_offset;
     let yaw = v.heading.y.atan2(v.heading.x);
-    v.pose = Pose { x: axle.x, y: axle.y, z: 0.5 * (z_front + z_back), yaw };
+    v.pose = Pose {
+        x: axle.x,
+        y: axle.y,
+        z: 0.5 * (z_front + z_back),
+        yaw,
+    };
     v.front = front;
     v.back = back;
 }

@@ -48,8 +48,12 @@ pub fn whitelisted(area: &Crosswalk, root_name: &str) -> bool {
     }
     let normalized = normalized_prefab_name(root_name);
     let lower = root_name.to_lowercase();
-    w.allowed_prefabs.iter().any(|p| normalized_prefab_name(p) == normalized)
-        || w.allowed_root_name_substrings.iter().any(|s| lower.contains(&s.to_lowercase()))
+    w.allowed_prefabs
+        .iter()
+        .any(|p| normalized_prefab_name(p) == normalized)
+        || w.allowed_root_name_substrings
+            .iter()
+            .any(|s| lower.contains(&s.to_lowercase()))
 }
 
 /// Occupant roots of every area.
@@ -69,11 +73,19 @@ pub enum OccupancyChange {
 
 impl Occupancy {
     pub fn new(areas: usize) -> Self {
-        Occupancy { roots: vec![BTreeSet::new(); areas] }
+        Occupancy {
+            roots: vec![BTreeSet::new(); areas],
+        }
     }
 
     /// OnTriggerEnter: counts the root if its type is detected and it is whitelisted.
-    pub fn enter(&mut self, areas: &[Crosswalk], area: usize, root: &str, kind: OccupantType) -> OccupancyChange {
+    pub fn enter(
+        &mut self,
+        areas: &[Crosswalk],
+        area: usize,
+        root: &str,
+        kind: OccupantType,
+    ) -> OccupancyChange {
         if !kind.is_detected() || !whitelisted(&areas[area], root) {
             return OccupancyChange::Ignored;
         }
@@ -86,7 +98,11 @@ impl Occupancy {
 
     /// OnTriggerExit.
     pub fn exit(&mut self, area: usize, root: &str) -> OccupancyChange {
-        if self.roots[area].remove(root) { OccupancyChange::Exited } else { OccupancyChange::Ignored }
+        if self.roots[area].remove(root) {
+            OccupancyChange::Exited
+        } else {
+            OccupancyChange::Ignored
+        }
     }
 
     pub fn is_occupied(&self, area: usize) -> bool {

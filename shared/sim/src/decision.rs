@@ -23,7 +23,12 @@ impl StopDistances {
         let absolute = stoppable(c.absolute_deceleration) + MIN_STOP_DISTANCE;
         let sudden = stoppable(c.sudden_deceleration) + MIN_STOP_DISTANCE * 2.0;
         let stop = stoppable(c.deceleration) + MIN_STOP_DISTANCE * 3.0;
-        StopDistances { absolute, sudden, stop, slow_down: stop + SLOW_DOWN_MARGIN }
+        StopDistances {
+            absolute,
+            sudden,
+            stop,
+            slow_down: stop + SLOW_DOWN_MARGIN,
+        }
     }
 }
 
@@ -38,7 +43,10 @@ pub struct StopCandidates {
 
 impl StopCandidates {
     pub fn nearest(&self) -> f64 {
-        self.front_vehicle.min(self.traffic_light).min(self.right_of_way).min(self.zebra)
+        self.front_vehicle
+            .min(self.traffic_light)
+            .min(self.right_of_way)
+            .min(self.zebra)
     }
 }
 
@@ -50,9 +58,22 @@ pub fn stop_candidates(v: &Vehicle, d: &StopDistances) -> StopCandidates {
         (Some(_), LightColor::Yellow) if v.distance_to_light < d.sudden => f64::INFINITY,
         (Some(_), _) => v.distance_to_light,
     };
-    let right_of_way = if v.yield_phase.is_yielding() { v.signed_distance(v.yield_point) } else { f64::INFINITY };
-    let zebra = if v.zebra.is_blocked { v.zebra.distance_to_stop } else { f64::INFINITY };
-    StopCandidates { front_vehicle, traffic_light, right_of_way, zebra }
+    let right_of_way = if v.yield_phase.is_yielding() {
+        v.signed_distance(v.yield_point)
+    } else {
+        f64::INFINITY
+    };
+    let zebra = if v.zebra.is_blocked {
+        v.zebra.distance_to_stop
+    } else {
+        f64::INFINITY
+    };
+    StopCandidates {
+        front_vehicle,
+        traffic_light,
+        right_of_way,
+        zebra,
+    }
 }
 
 pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) -> SpeedMode {

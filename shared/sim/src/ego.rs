@@ -20,7 +20,12 @@ pub struct Ego {
 impl Ego {
     /// An ego with a passenger car's footprint (AWSIM's Lexus: 4.9 x 1.9 m).
     pub fn car(x: f64, y: f64, yaw: f64) -> Self {
-        Ego { pose: Pose { x, y, z: 0.0, yaw }, length: 4.9, width: 1.9, front_offset: 3.8 }
+        Ego {
+            pose: Pose { x, y, z: 0.0, yaw },
+            length: 4.9,
+            width: 1.9,
+            front_offset: 3.8,
+        }
     }
 
     pub fn position(&self) -> DVec2 {
@@ -36,7 +41,12 @@ impl Ego {
     }
 
     pub fn corners(&self) -> [DVec2; 4] {
-        box_corners(self.center(), self.pose.yaw, self.length * 0.5, self.width * 0.5)
+        box_corners(
+            self.center(),
+            self.pose.yaw,
+            self.length * 0.5,
+            self.width * 0.5,
+        )
     }
 
     /// Radius of the circle around `center` that holds the box.

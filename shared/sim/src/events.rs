@@ -38,9 +38,24 @@ pub struct TripRecord {
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum SimEvent {
-    Spawned { id: VehicleId, kind: String, lane: u32, time: f64 },
+    Spawned {
+        id: VehicleId,
+        kind: String,
+        lane: u32,
+        time: f64,
+    },
     Despawned(TripRecord),
-    ZebraStop { id: VehicleId, area: usize, distance: f64 },
-    ZebraClear { id: VehicleId, area: usize },
-    BranchDecision { id: VehicleId, choice: BranchChoice },
+    ZebraStop {
+        id: VehicleId,
+        area: usize,
+        distance: f64,
+    },
+    ZebraClear {
+        id: VehicleId,
+        area: usize,
+    },
+    BranchDecision {
+        id: VehicleId,
+        choice: BranchChoice,
+    },
 }

@@ -46,10 +46,22 @@ impl Polyline {
             if i > 0 && i + 1 < n {
                 turn += angle_between(vertices[i - 1].heading, heading);
             }
-            vertices.push(Vertex { point: points[i], z: heights[i], cum, heading, turn_cum: turn });
+            vertices.push(Vertex {
+                point: points[i],
+                z: heights[i],
+                cum,
+                heading,
+                turn_cum: turn,
+            });
         }
         let (start, end) = (vertices[0], vertices[n - 1]);
-        Polyline { vertices, length: cum, start, end, straight: n == 2 }
+        Polyline {
+            vertices,
+            length: cum,
+            start,
+            end,
+            straight: n == 2,
+        }
     }
 
     pub fn length(&self) -> f64 {
@@ -61,7 +73,11 @@ impl Polyline {
     }
 
     pub fn point(&self, i: usize) -> DVec2 {
-        if i == 0 { self.start.point } else { self.vertices[i].point }
+        if i == 0 {
+            self.start.point
+        } else {
+            self.vertices[i].point
+        }
     }
 
     /// One straight segment.
@@ -85,7 +101,10 @@ impl Polyline {
         if last == 0 {
             return 0;
         }
-        self.vertices.partition_point(|v| v.cum <= s).saturating_sub(1).min(last)
+        self.vertices
+            .partition_point(|v| v.cum <= s)
+            .saturating_sub(1)
+            .min(last)
     }
 
     /// Unit direction of segment i.
@@ -103,7 +122,10 @@ impl Polyline {
         };
         let seg = b.cum - a.cum;
         let t = if seg > 0.0 { (s - a.cum) / seg } else { 0.0 };
-        (a.point.lerp(b.point, t), a.z + (b.z - a.z) * t.clamp(0.0, 1.0))
+        (
+            a.point.lerp(b.point, t),
+            a.z + (b.z - a.z) * t.clamp(0.0, 1.0),
+        )
     }
 
     /// Arc length of the point of the polyline closest to p.
@@ -113,7 +135,11 @@ impl Polyline {
             let (a, b) = (w[0].point, w[1].point);
             let ab = b - a;
             let len2 = ab.length_squared();
-            let t = if len2 > 0.0 { ((p - a).dot(ab) / len2).clamp(0.0, 1.0) } else { 0.0 };
+            let t = if len2 > 0.0 {
+                ((p - a).dot(ab) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let d = p.distance_squared(a + ab * t);
             if d < best.0 {
                 best = (d, w[0].cum + t * len2.sqrt());
@@ -179,7 +205,9 @@ pub fn boxes_overlap(a: &[DVec2; 4], b: &[DVec2; 4]) -> bool {
 fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
     poly.iter()
         .map(|p| p.dot(axis))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)))
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        })
 }
 
 /// Even-odd point-in-polygon test.

@@ -22,7 +22,11 @@ pub struct LaneIndex {
 }
 
 impl LaneIndex {
-    pub fn build(lane_count: usize, vehicles: &[Vehicle], lane_length: impl Fn(LaneId) -> f64) -> Self {
+    pub fn build(
+        lane_count: usize,
+        vehicles: &[Vehicle],
+        lane_length: impl Fn(LaneId) -> f64,
+    ) -> Self {
         let mut counts = vec![0u32; lane_count + 1];
         for v in vehicles {
             counts[v.path[0] as usize] += 1;
@@ -37,25 +41,48 @@ impl LaneIndex {
             starts[i + 1] = starts[i] + counts[i];
         }
         let mut fill = starts.clone();
-        let mut entries = vec![Occupant { rear: 0.0, front: 0.0, vehicle: 0 }; starts[lane_count] as usize];
+        let mut entries = vec![
+            Occupant {
+                rear: 0.0,
+                front: 0.0,
+                vehicle: 0
+            };
+            starts[lane_count] as usize
+        ];
         let mut put = |lane: LaneId, occ: Occupant| {
             let slot = &mut fill[lane as usize];
             entries[*slot as usize] = occ;
             *slot += 1;
         };
         for (i, v) in vehicles.iter().enumerate() {
-            put(v.path[0], Occupant { rear: v.rear_s(), front: v.s, vehicle: i as u32 });
+            put(
+                v.path[0],
+                Occupant {
+                    rear: v.rear_s(),
+                    front: v.s,
+                    vehicle: i as u32,
+                },
+            );
             if v.rear_s() < 0.0
                 && let Some(p) = v.prev_lane
             {
                 let len = lane_length(p);
-                put(p, Occupant { rear: len + v.rear_s(), front: len + v.s, vehicle: i as u32 });
+                put(
+                    p,
+                    Occupant {
+                        rear: len + v.rear_s(),
+                        front: len + v.s,
+                        vehicle: i as u32,
+                    },
+                );
             }
         }
         for lane in 0..lane_count {
             let slice = &mut entries[starts[lane] as usize..starts[lane + 1] as usize];
             if slice.len() > 1 {
-                slice.sort_unstable_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
+                slice.sort_unstable_by(|a, b| {
+                    a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle))
+                });
             }
         }
         LaneIndex { starts, entries }

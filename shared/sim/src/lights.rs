@@ -22,7 +22,10 @@ pub fn program_state(program: &LightProgram, t: f64) -> LightState {
     } else {
         (LightColor::Red, cycle)
     };
-    LightState { color, next_change: start + end }
+    LightState {
+        color,
+        next_change: start + end,
+    }
 }
 
 /// What a light group is doing now: running its program or forced to a colour.
@@ -42,7 +45,13 @@ pub struct Lights {
 impl Lights {
     pub fn new(programs: impl IntoIterator<Item = LightProgram>) -> Self {
         let controls: Vec<LightControl> = programs.into_iter().map(LightControl::Program).collect();
-        let states = vec![LightState { color: LightColor::Green, next_change: 0.0 }; controls.len()];
+        let states = vec![
+            LightState {
+                color: LightColor::Green,
+                next_change: 0.0
+            };
+            controls.len()
+        ];
         let mut lights = Lights { controls, states };
         lights.update(0.0);
         lights
@@ -52,7 +61,10 @@ impl Lights {
         for (state, control) in self.states.iter_mut().zip(&self.controls) {
             *state = match control {
                 LightControl::Program(p) => program_state(p, t),
-                LightControl::Forced(color) => LightState { color: *color, next_change: f64::INFINITY },
+                LightControl::Forced(color) => LightState {
+                    color: *color,
+                    next_change: f64::INFINITY,
+                },
             };
         }
     }
@@ -77,7 +89,12 @@ mod tests {
 
     #[test]
     fn program_cycles_green_yellow_red_from_offset() {
-        let p = LightProgram { green: 10.0, yellow: 3.0, red: 7.0, offset: 5.0 };
+        let p = LightProgram {
+            green: 10.0,
+            yellow: 3.0,
+            red: 7.0,
+            offset: 5.0,
+        };
         assert_eq!(program_state(&p, 5.0).color, LightColor::Green);
         assert_eq!(program_state(&p, 14.9).color, LightColor::Green);
         assert_eq!(program_state(&p, 15.0).color, LightColor::Yellow);

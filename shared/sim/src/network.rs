@@ -4,7 +4,9 @@
 use glam::DVec2;
 use rustc_hash::FxHashMap;
 use trafficmesh_model::map::{CrosswalkArea, MapFile, SimulatorDef};
-use trafficmesh_model::{LightProgram, MapProblem, TurnDirection, VehicleKind, ZebraConfigDef, builtin_kind};
+use trafficmesh_model::{
+    LightProgram, MapProblem, TurnDirection, VehicleKind, ZebraConfigDef, builtin_kind,
+};
 
 use crate::conflicts::{Conflict, find_conflicts_and_junctions};
 use crate::geometry::{Polyline, box_corners};
@@ -130,7 +132,11 @@ impl LaneNetwork {
             .lanes
             .iter()
             .map(|def| {
-                let points = def.waypoints.iter().map(|p| DVec2::new(p.0[0], p.0[1])).collect();
+                let points = def
+                    .waypoints
+                    .iter()
+                    .map(|p| DVec2::new(p.0[0], p.0[1]))
+                    .collect();
                 let heights = def.waypoints.iter().map(|p| p.0[2]).collect();
                 let line = Polyline::new(points, heights);
                 let stop_center = def
@@ -178,16 +184,25 @@ impl LaneNetwork {
             .traffic_simulators
             .iter()
             .map(|s| match s {
-                SimulatorDef::Random { lanes, prefabs, maximum_spawns, enabled, spawn_attempts_per_tick } => {
-                    SimulatorSpec::Random {
-                        lanes: lanes.iter().map(id).collect(),
-                        kinds: prefabs.iter().map(|p| kind_index(p)).collect(),
-                        maximum_spawns: *maximum_spawns,
-                        enabled: *enabled,
-                        attempts_per_tick: (*spawn_attempts_per_tick).max(1),
-                    }
-                }
-                SimulatorDef::Route { route, prefabs, maximum_spawns, enabled } => SimulatorSpec::Route {
+                SimulatorDef::Random {
+                    lanes,
+                    prefabs,
+                    maximum_spawns,
+                    enabled,
+                    spawn_attempts_per_tick,
+                } => SimulatorSpec::Random {
+                    lanes: lanes.iter().map(id).collect(),
+                    kinds: prefabs.iter().map(|p| kind_index(p)).collect(),
+                    maximum_spawns: *maximum_spawns,
+                    enabled: *enabled,
+                    attempts_per_tick: (*spawn_attempts_per_tick).max(1),
+                },
+                SimulatorDef::Route {
+                    route,
+                    prefabs,
+                    maximum_spawns,
+                    enabled,
+                } => SimulatorSpec::Route {
                     route: route.iter().map(id).collect(),
                     kinds: prefabs.iter().map(|p| kind_index(p)).collect(),
                     maximum_spawns: *maximum_spawns,
@@ -201,13 +216,23 @@ impl LaneNetwork {
             .iter()
             .map(|c| {
                 let (polygon, center) = match &c.area {
-                    CrosswalkArea::Box { center, half_extents, yaw_deg } => {
+                    CrosswalkArea::Box {
+                        center,
+                        half_extents,
+                        yaw_deg,
+                    } => {
                         let ctr = DVec2::new(center.0[0], center.0[1]);
-                        let corners = box_corners(ctr, yaw_deg.to_radians(), half_extents[0], half_extents[1]);
+                        let corners = box_corners(
+                            ctr,
+                            yaw_deg.to_radians(),
+                            half_extents[0],
+                            half_extents[1],
+                        );
                         (corners.to_vec(), ctr)
                     }
                     CrosswalkArea::Polygon { points } => {
-                        let pts: Vec<DVec2> = points.iter().map(|p| DVec2::new(p.0[0], p.0[1])).collect();
+                        let pts: Vec<DVec2> =
+                            points.iter().map(|p| DVec2::new(p.0[0], p.0[1])).collect();
                         let ctr = pts.iter().copied().sum::<DVec2>() / pts.len() as f64;
                         (pts, ctr)
                     }
@@ -221,7 +246,10 @@ impl LaneNetwork {
                     })
                     .collect();
                 if stops.is_empty() {
-                    stops.push(CrosswalkStop { position: center, heading: None });
+                    stops.push(CrosswalkStop {
+                        position: center,
+                        heading: None,
+                    });
                 }
                 let whitelist = c
                     .config
@@ -249,7 +277,10 @@ impl LaneNetwork {
             light_groups: map
                 .light_groups
                 .iter()
-                .map(|g| LightGroup { name: g.name.clone(), program: g.program })
+                .map(|g| LightGroup {
+                    name: g.name.clone(),
+                    program: g.program,
+                })
                 .collect(),
             crosswalks,
             simulators,

@@ -27,7 +27,9 @@ pub fn populate(world: &mut World, count: usize) -> usize {
                 continue;
             }
             let kind = kinds[placed % kinds.len()];
-            world.place_vehicle(kind, name, s, 0.0).expect("lane and position are valid");
+            world
+                .place_vehicle(kind, name, s, 0.0)
+                .expect("lane and position are valid");
             placed += 1;
             any = true;
         }

@@ -31,7 +31,12 @@ pub struct ZebraState {
 
 impl Default for ZebraState {
     fn default() -> Self {
-        ZebraState { is_blocked: false, distance_to_stop: f64::MAX, area: None, was_blocked: false }
+        ZebraState {
+            is_blocked: false,
+            distance_to_stop: f64::MAX,
+            area: None,
+            was_blocked: false,
+        }
     }
 }
 
@@ -115,7 +120,11 @@ impl Vehicle {
     pub fn signed_distance(&self, p: DVec2) -> f64 {
         let d = p - self.front;
         let dist = d.length();
-        if self.forward().dot(d) < 0.0 { -dist } else { dist }
+        if self.forward().dot(d) < 0.0 {
+            -dist
+        } else {
+            dist
+        }
     }
 
     pub fn current_lane(&self) -> LaneId {

@@ -29,7 +29,11 @@ fn slows_before_a_sharp_curve() {
     let mut w = world(&m, WorldConfig::default());
     let id = w.place_vehicle("Taxi", "east", 100.0, 13.89).unwrap();
     w.step();
-    assert_eq!(vehicle(&w, id).speed_mode, SpeedMode::Normal, "no curve within 40 m yet");
+    assert_eq!(
+        vehicle(&w, id).speed_mode,
+        SpeedMode::Normal,
+        "no curve within 40 m yet"
+    );
     let mut slow_from_x = None;
     assert!(run_until(&mut w, 20.0, |w| {
         let v = vehicle(w, id);
@@ -40,7 +44,10 @@ fn slows_before_a_sharp_curve() {
         v.front.x > 300.0
     }));
     let x = slow_from_x.expect("never slowed for the curve");
-    assert!((255.0..300.0).contains(&x), "SLOW began at x={x:.1}, curve starts at 300");
+    assert!(
+        (255.0..300.0).contains(&x),
+        "SLOW began at x={x:.1}, curve starts at 300"
+    );
     let v = vehicle(&w, id);
     assert_eq!(v.speed_mode, SpeedMode::Slow);
     // SLOW brakes at 2 m/s² toward 5 m/s from where the turn enters the 40 m window.

@@ -14,27 +14,56 @@ const LONGEST_PLAUSIBLE_STOP: f64 = 240.0;
 
 #[test]
 fn grid_5x5_thirty_minutes_no_overlap_and_no_endless_stop() {
-    let map = grid_map(&GridOptions { size: 5, ..GridOptions::default() });
-    let mut w = world(&map, WorldConfig { max_vehicles: 250, seed: 3, ..WorldConfig::default() });
+    let map = grid_map(&GridOptions {
+        size: 5,
+        ..GridOptions::default()
+    });
+    let mut w = world(
+        &map,
+        WorldConfig {
+            max_vehicles: 250,
+            seed: 3,
+            ..WorldConfig::default()
+        },
+    );
     let mut stopped_since: HashMap<u64, f64> = HashMap::new();
     let (mut despawned, mut peak) = (0, 0);
     while w.time() < 1800.0 {
         w.step();
-        despawned += w.drain_events().filter(|e| matches!(e, SimEvent::Despawned(_))).count();
+        despawned += w
+            .drain_events()
+            .filter(|e| matches!(e, SimEvent::Despawned(_)))
+            .count();
         peak = peak.max(w.vehicles().len());
-        if w.ticks() % 5 != 0 {
+        if !w.ticks().is_multiple_of(5) {
             continue;
         }
         let pairs = overlapping_pairs(w.vehicles(), 0.1);
         if let Some(&(a, b)) = pairs.first() {
             let describe = |id| {
                 let v = vehicle(&w, id);
-                let path: Vec<&str> = v.path.iter().map(|&l| w.network().lane(l).name.as_str()).collect();
+                let path: Vec<&str> = v
+                    .path
+                    .iter()
+                    .map(|&l| w.network().lane(l).name.as_str())
+                    .collect();
                 let prev = v.prev_lane.map(|l| w.network().lane(l).name.as_str());
-                format!("#{id} {} on {path:?} (prev {prev:?}) s={:.1} v={:.1} {:?} {:?} front_gap={:.1}",
-                    w.network().kinds[v.kind].name, v.s, v.speed, v.speed_mode, v.yield_phase, v.distance_to_front)
+                format!(
+                    "#{id} {} on {path:?} (prev {prev:?}) s={:.1} v={:.1} {:?} {:?} front_gap={:.1}",
+                    w.network().kinds[v.kind].name,
+                    v.s,
+                    v.speed,
+                    v.speed_mode,
+                    v.yield_phase,
+                    v.distance_to_front
+                )
             };
-            panic!("overlap at t={:.2}:\n  {}\n  {}", w.time(), describe(a), describe(b));
+            panic!(
+                "overlap at t={:.2}:\n  {}\n  {}",
+                w.time(),
+                describe(a),
+                describe(b)
+            );
         }
         for v in w.vehicles() {
             if v.speed < 0.05 {
@@ -54,5 +83,8 @@ fn grid_5x5_thirty_minutes_no_overlap_and_no_endless_stop() {
         }
     }
     assert!(peak >= 240, "the grid never filled up (peak {peak})");
-    assert!(despawned > 1000, "only {despawned} trips finished in 30 minutes");
+    assert!(
+        despawned > 1000,
+        "only {despawned} trips finished in 30 minutes"
+    );
 }

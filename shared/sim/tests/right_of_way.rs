@@ -12,14 +12,27 @@ use trafficmesh_sim::{World, WorldConfig};
 /// lanes approach k's junction lane must yield to.
 fn crossing(yields: [&[&str]; 4]) -> MapFile {
     // (name, unit direction of travel)
-    let approaches = [("S", [0.0, 1.0]), ("W", [1.0, 0.0]), ("N", [0.0, -1.0]), ("E", [-1.0, 0.0])];
+    let approaches = [
+        ("S", [0.0, 1.0]),
+        ("W", [1.0, 0.0]),
+        ("N", [0.0, -1.0]),
+        ("E", [-1.0, 0.0]),
+    ];
     let mut lanes = Vec::new();
     for (k, (name, d)) in approaches.iter().enumerate() {
         // Right-hand traffic: lanes sit 1.75 m right of the road's axis.
         let r = [d[1] * 1.75, -d[0] * 1.75];
         let at = |t: f64| [d[0] * t + r[0], d[1] * t + r[1]];
-        lanes.push(lane(&format!("{name}_in"), &[at(-110.0), at(-10.0)], &[&format!("{name}_x")]));
-        let mut x = lane(&format!("{name}_x"), &[at(-10.0), at(10.0)], &[&format!("{name}_out")]);
+        lanes.push(lane(
+            &format!("{name}_in"),
+            &[at(-110.0), at(-10.0)],
+            &[&format!("{name}_x")],
+        ));
+        let mut x = lane(
+            &format!("{name}_x"),
+            &[at(-10.0), at(10.0)],
+            &[&format!("{name}_out")],
+        );
         x["intersection"] = json!(true);
         x["right_of_way"] = json!(yields[k]);
         lanes.push(x);
@@ -45,21 +58,36 @@ fn yields_at_intersection_to_vehicle_on_right_of_way_lane() {
         assert_no_overlap(w);
         let (y, p) = (vehicle(w, yielding), vehicle(w, priority));
         saw_lane_rule |= y.yield_phase == YieldPhase::LanesRulesEnteringIntersection;
-        if y.path[0] == w.network().lane_id("S_x").unwrap() && y.front.y > -3.0 && !priority_cleared_first {
+        if y.path[0] == w.network().lane_id("S_x").unwrap()
+            && y.front.y > -3.0
+            && !priority_cleared_first
+        {
             // The yielding car reaches the crossing point only after the other has passed it.
-            assert!(p.back.x > 1.75 + 1.0, "entered the crossing before the priority vehicle cleared it");
+            assert!(
+                p.back.x > 1.75 + 1.0,
+                "entered the crossing before the priority vehicle cleared it"
+            );
             priority_cleared_first = true;
         }
         y.front.y > 20.0
     });
-    assert!(saw_lane_rule, "never entered LANES_RULES_ENTERING_INTERSECTION");
-    assert!(priority_cleared_first && went_on, "the yielding vehicle did not cross after the other");
+    assert!(
+        saw_lane_rule,
+        "never entered LANES_RULES_ENTERING_INTERSECTION"
+    );
+    assert!(
+        priority_cleared_first && went_on,
+        "the yielding vehicle did not cross after the other"
+    );
 }
 
 #[test]
 fn forcing_priority_resolves_a_four_way_deadlock() {
     // Each approach yields to the one on its right: a cycle nobody can win by rule.
-    let mut w = world(&crossing([&["E_x"], &["S_x"], &["W_x"], &["N_x"]]), WorldConfig::default());
+    let mut w = world(
+        &crossing([&["E_x"], &["S_x"], &["W_x"], &["N_x"]]),
+        WorldConfig::default(),
+    );
     let ids: Vec<u64> = ["S_in", "W_in", "N_in", "E_in"]
         .iter()
         .map(|l| w.place_vehicle("SmallCar", l, 70.0, 8.0).unwrap())
@@ -67,12 +95,18 @@ fn forcing_priority_resolves_a_four_way_deadlock() {
     let mut saw_forcing = false;
     let crossed = run_until(&mut w, 120.0, |w| {
         assert_no_overlap(w);
-        saw_forcing |= w.vehicles().iter().any(|v| v.yield_phase == YieldPhase::ForcingPriority);
+        saw_forcing |= w
+            .vehicles()
+            .iter()
+            .any(|v| v.yield_phase == YieldPhase::ForcingPriority);
         ids.iter().all(|&id| {
             let v = vehicle(w, id);
             w.network().lane(v.path[0]).name.ends_with("_out") && v.s > 10.0
         })
     });
     assert!(saw_forcing, "no vehicle ever held in FORCING_PRIORITY");
-    assert!(crossed, "the four vehicles did not all cross within two minutes");
+    assert!(
+        crossed,
+        "the four vehicles did not all cross within two minutes"
+    );
 }

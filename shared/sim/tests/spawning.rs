@@ -17,11 +17,19 @@ fn forks() -> MapFile {
     let feeders: Vec<String> = (0..4).map(|k| format!("F{k}")).collect();
     for (k, f) in feeders.iter().enumerate() {
         let y = k as f64 * 10.0;
-        lanes.push(lane(f, &[[0.0, y], [300.0, y]], &[&format!("{f}_a"), &format!("{f}_b")]));
+        lanes.push(lane(
+            f,
+            &[[0.0, y], [300.0, y]],
+            &[&format!("{f}_a"), &format!("{f}_b")],
+        ));
         let mut a = lane(&format!("{f}_a"), &[[300.0, y], [400.0, y]], &[]);
         a["intersection"] = json!(true);
         lanes.push(a);
-        lanes.push(lane(&format!("{f}_b"), &[[300.0, y], [340.0, y + 4.0], [400.0, y + 4.0]], &[]));
+        lanes.push(lane(
+            &format!("{f}_b"),
+            &[[300.0, y], [340.0, y + 4.0], [400.0, y + 4.0]],
+            &[],
+        ));
     }
     let mut m = map(lanes, json!({}));
     m.traffic_simulators = vec![serde_json::from_value(json!({
@@ -33,7 +41,13 @@ fn forks() -> MapFile {
 
 #[test]
 fn no_spawn_within_50_m_of_the_ego() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 100, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 100,
+            ..WorldConfig::default()
+        },
+    );
     // 40 m from F1's start, 41 m from F0's and F2's, more than 50 m from F3's.
     w.set_ego(Some(Ego::car(0.0, -30.0, 0.0)));
     let mut near = Vec::new();
@@ -52,18 +66,36 @@ fn no_spawn_within_50_m_of_the_ego() {
             }
         }
     }
-    assert!(near.is_empty(), "spawned within 50 m of the ego on {near:?}");
-    assert!(far > 5, "the lane far from the ego spawned only {far} vehicles");
+    assert!(
+        near.is_empty(),
+        "spawned within 50 m of the ego on {near:?}"
+    );
+    assert!(
+        far > 5,
+        "the lane far from the ego spawned only {far} vehicles"
+    );
     assert!(w.spawn_stats().too_close_to_ego > 0);
 }
 
 #[test]
 fn a_lane_at_6_spawns_per_minute_gets_at_most_6_a_minute() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 200, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 200,
+            ..WorldConfig::default()
+        },
+    );
     let config = TrafficSpawnConfig {
         spawn_rates: vec![
-            SpawnRate { lane: "f2".into(), spawns_per_minute: 6.0 },
-            SpawnRate { lane: "F3".into(), spawns_per_minute: 0.0 },
+            SpawnRate {
+                lane: "f2".into(),
+                spawns_per_minute: 6.0,
+            },
+            SpawnRate {
+                lane: "F3".into(),
+                spawns_per_minute: 0.0,
+            },
         ],
         branch_weights: vec![],
     };
@@ -72,7 +104,10 @@ fn a_lane_at_6_spawns_per_minute_gets_at_most_6_a_minute() {
     let mut unlimited = 0;
     for _ in 0..(300.0 / 0.02) as usize {
         w.step();
-        let (l2, l3) = (w.network().lane_id("F2").unwrap(), w.network().lane_id("F3").unwrap());
+        let (l2, l3) = (
+            w.network().lane_id("F2").unwrap(),
+            w.network().lane_id("F3").unwrap(),
+        );
         for e in w.drain_events() {
             match e {
                 SimEvent::Spawned { lane, time, .. } if lane == l2 => limited.push(time),
@@ -82,52 +117,107 @@ fn a_lane_at_6_spawns_per_minute_gets_at_most_6_a_minute() {
         }
     }
     for window in limited.windows(7) {
-        assert!(window[6] - window[0] >= 60.0 - 1e-6, "7 spawns within a minute: {window:?}");
+        assert!(
+            window[6] - window[0] >= 60.0 - 1e-6,
+            "7 spawns within a minute: {window:?}"
+        );
     }
     // The limit is the binding constraint, not clearance: close to 6 a minute.
-    assert!(limited.len() >= 27, "only {} spawns in 5 minutes", limited.len());
-    assert!(unlimited > 2 * limited.len(), "spawnsPerMinute 0 must mean no limit ({unlimited} spawns)");
+    assert!(
+        limited.len() >= 27,
+        "only {} spawns in 5 minutes",
+        limited.len()
+    );
+    assert!(
+        unlimited > 2 * limited.len(),
+        "spawnsPerMinute 0 must mean no limit ({unlimited} spawns)"
+    );
 }
 
 #[test]
 fn weights_2_to_1_give_2_to_1_frequencies() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 200, seed: 7, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 200,
+            seed: 7,
+            ..WorldConfig::default()
+        },
+    );
     let branch = |f: &str| BranchWeights {
         from_lane: f.into(),
-        next: vec![NextWeight { lane: format!("{f}_A"), weight: 2.0 }, NextWeight { lane: format!("{f}_b"), weight: 1.0 }],
+        next: vec![
+            NextWeight {
+                lane: format!("{f}_A"),
+                weight: 2.0,
+            },
+            NextWeight {
+                lane: format!("{f}_b"),
+                weight: 1.0,
+            },
+        ],
     };
-    w.set_spawn_config(TrafficSpawnConfig { spawn_rates: vec![], branch_weights: (0..4).map(|k| branch(&format!("F{k}"))).collect() })
-        .unwrap();
+    w.set_spawn_config(TrafficSpawnConfig {
+        spawn_rates: vec![],
+        branch_weights: (0..4).map(|k| branch(&format!("F{k}"))).collect(),
+    })
+    .unwrap();
     run_for(&mut w, 900.0);
     let net = w.network();
     let (mut a, mut b) = (0u64, 0u64);
     for k in 0..4 {
         let f = net.lane_id(&format!("F{k}")).unwrap();
-        a += w.branch_stats().count(f, net.lane_id(&format!("F{k}_a")).unwrap());
-        b += w.branch_stats().count(f, net.lane_id(&format!("F{k}_b")).unwrap());
+        a += w
+            .branch_stats()
+            .count(f, net.lane_id(&format!("F{k}_a")).unwrap());
+        b += w
+            .branch_stats()
+            .count(f, net.lane_id(&format!("F{k}_b")).unwrap());
     }
     let n = (a + b) as f64;
     assert!(n >= 500.0, "only {n} decisions");
     let observed = a as f64 / n;
     let sigma = (2.0 / 9.0 / n).sqrt();
-    assert!((observed - 2.0 / 3.0).abs() < 4.0 * sigma, "observed {observed:.3} of {n} for weight 2/3");
+    assert!(
+        (observed - 2.0 / 3.0).abs() < 4.0 * sigma,
+        "observed {observed:.3} of {n} for weight 2/3"
+    );
     let csv = w.branch_csv();
-    assert!(csv.lines().any(|l| l.starts_with("F0,F0_a,weighted,")), "{csv}");
+    assert!(
+        csv.lines().any(|l| l.starts_with("F0,F0_a,weighted,")),
+        "{csv}"
+    );
 }
 
 #[test]
 fn uniform_choices_are_labelled_uniform_no_config() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 50, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 50,
+            ..WorldConfig::default()
+        },
+    );
     run_for(&mut w, 120.0);
     let csv = w.branch_csv();
     let rows: Vec<&str> = csv.lines().skip(1).collect();
     assert!(!rows.is_empty());
-    assert!(rows.iter().all(|r| r.split(',').nth(2) == Some("uniform_no_config")), "{csv}");
+    assert!(
+        rows.iter()
+            .all(|r| r.split(',').nth(2) == Some("uniform_no_config")),
+        "{csv}"
+    );
 }
 
 #[test]
 fn remove_vehicles_in_radius_returns_the_count_and_they_are_gone_next_tick() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 200, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 200,
+            ..WorldConfig::default()
+        },
+    );
     w.set_ego(Some(Ego::car(-500.0, -500.0, 0.0)));
     run_for(&mut w, 60.0);
     let center = DVec2::new(150.0, 15.0);
@@ -142,14 +232,23 @@ fn remove_vehicles_in_radius_returns_the_count_and_they_are_gone_next_tick() {
     assert_eq!(w.remove_vehicles_near(center, 60.0), inside.len());
     w.step();
     for id in &inside {
-        assert!(w.vehicle(*id).is_none(), "vehicle {id} still there after the next tick");
+        assert!(
+            w.vehicle(*id).is_none(),
+            "vehicle {id} still there after the next tick"
+        );
     }
     assert!(w.vehicles().len() >= total - inside.len());
 }
 
 #[test]
 fn restart_resets_state_with_the_new_maximum() {
-    let mut w = world(&forks(), WorldConfig { max_vehicles: 12, ..WorldConfig::default() });
+    let mut w = world(
+        &forks(),
+        WorldConfig {
+            max_vehicles: 12,
+            ..WorldConfig::default()
+        },
+    );
     assert!(run_until(&mut w, 60.0, |w| w.vehicles().len() == 12));
     let before = w.vehicles().iter().map(|v| v.id).max().unwrap();
     w.restart(3);
@@ -161,18 +260,33 @@ fn restart_resets_state_with_the_new_maximum() {
         peak = peak.max(w.vehicles().len());
     }
     assert_eq!(peak, 3, "the new maximum is 3");
-    assert!(w.vehicles().iter().all(|v| v.id > before), "ids keep counting after a restart");
+    assert!(
+        w.vehicles().iter().all(|v| v.id > before),
+        "ids keep counting after a restart"
+    );
 }
 
 #[test]
 fn spawn_config_with_unknown_lane_is_rejected_and_nothing_changes() {
     let mut w = world(&forks(), WorldConfig::default());
     let bad = TrafficSpawnConfig {
-        spawn_rates: vec![SpawnRate { lane: "F1".into(), spawns_per_minute: -1.0 }],
-        branch_weights: vec![BranchWeights { from_lane: "Nope".into(), next: vec![] }],
+        spawn_rates: vec![SpawnRate {
+            lane: "F1".into(),
+            spawns_per_minute: -1.0,
+        }],
+        branch_weights: vec![BranchWeights {
+            from_lane: "Nope".into(),
+            next: vec![],
+        }],
     };
     let err = w.set_spawn_config(bad).unwrap_err().to_string();
-    for expected in ["lane 'F1'", "spawnsPerMinute", "fromLane 'Nope'", "unknown lane 'Nope'", "'next': is empty"] {
+    for expected in [
+        "lane 'F1'",
+        "spawnsPerMinute",
+        "fromLane 'Nope'",
+        "unknown lane 'Nope'",
+        "'next': is empty",
+    ] {
         assert!(err.contains(expected), "missing {expected:?} in: {err}");
     }
     assert_eq!(w.spawn_config(), TrafficSpawnConfig::default());

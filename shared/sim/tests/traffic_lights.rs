@@ -5,31 +5,47 @@ mod support;
 
 use support::*;
 use trafficmesh_model::LightColor;
+use trafficmesh_sim::WorldConfig;
 use trafficmesh_sim::decision::StopDistances;
 use trafficmesh_sim::lights::LightControl;
-use trafficmesh_sim::WorldConfig;
 
 const STOP_LINE_X: f64 = 190.0;
 
 #[test]
 fn stops_before_red_stop_line_and_goes_on_green() {
     let mut w = world(&signalised_road(), WorldConfig::default());
-    w.set_light("L", LightControl::Forced(LightColor::Red)).unwrap();
+    w.set_light("L", LightControl::Forced(LightColor::Red))
+        .unwrap();
     let id = w.place_vehicle("Taxi", "approach", 60.0, 13.89).unwrap();
     run_for(&mut w, 40.0);
     let v = vehicle(&w, id);
     assert!(v.speed < 0.05, "still moving at {} m/s", v.speed);
-    assert!(v.front.x < STOP_LINE_X, "front at x={} is past the stop line", v.front.x);
-    assert!(v.front.x > STOP_LINE_X - 6.0, "stopped {} m short of the line", STOP_LINE_X - v.front.x);
+    assert!(
+        v.front.x < STOP_LINE_X,
+        "front at x={} is past the stop line",
+        v.front.x
+    );
+    assert!(
+        v.front.x > STOP_LINE_X - 6.0,
+        "stopped {} m short of the line",
+        STOP_LINE_X - v.front.x
+    );
 
-    w.set_light("L", LightControl::Forced(LightColor::Green)).unwrap();
-    assert!(run_until(&mut w, 30.0, |w| vehicle(w, id).front.x > 260.0), "did not go on green");
+    w.set_light("L", LightControl::Forced(LightColor::Green))
+        .unwrap();
+    assert!(
+        run_until(&mut w, 30.0, |w| vehicle(w, id).front.x > 260.0),
+        "did not go on green"
+    );
 }
 
 fn yellow_scenario(distance_to_line: f64) -> (bool, f64) {
     let mut w = world(&signalised_road(), WorldConfig::default());
-    let id = w.place_vehicle("Taxi", "approach", STOP_LINE_X - distance_to_line, 13.89).unwrap();
-    w.set_light("L", LightControl::Forced(LightColor::Yellow)).unwrap();
+    let id = w
+        .place_vehicle("Taxi", "approach", STOP_LINE_X - distance_to_line, 13.89)
+        .unwrap();
+    w.set_light("L", LightControl::Forced(LightColor::Yellow))
+        .unwrap();
     let passed = run_until(&mut w, 30.0, |w| vehicle(w, id).front.x > STOP_LINE_X + 5.0);
     (passed, vehicle(&w, id).front.x)
 }
@@ -38,7 +54,11 @@ fn yellow_scenario(distance_to_line: f64) -> (bool, f64) {
 fn yellow_commits_inside_sudden_stop_distance() {
     let sudden = StopDistances::at(13.89, &Default::default()).sudden;
     let (passed, _) = yellow_scenario(sudden - 5.0);
-    assert!(passed, "a vehicle {:.1} m from the line at 50 km/h must commit", sudden - 5.0);
+    assert!(
+        passed,
+        "a vehicle {:.1} m from the line at 50 km/h must commit",
+        sudden - 5.0
+    );
 }
 
 #[test]

@@ -47,6 +47,20 @@ struct TickReport {
     tick_p50_ms: f64,
     tick_p99_ms: f64,
     realtime_factor_at_dt_0_02: f64,
+    /// Resident memory added by the vehicles (after warm-up), per vehicle.
+    bytes_per_vehicle: f64,
+}
+
+/// Resident set size of this process, bytes (Linux; 0 elsewhere).
+fn resident_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmRSS:"))
+                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
+        })
+        .map_or(0, |kib| kib * 1024)
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
@@ -54,9 +68,20 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");
     }
-    let net = LaneNetwork::build(&grid_map(&GridOptions { size: a.size, ..GridOptions::default() }))
-        .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
-    let mut world = World::new(net, WorldConfig { max_vehicles: a.vehicles, ..WorldConfig::default() });
+    let net = LaneNetwork::build(&grid_map(&GridOptions {
+        size: a.size,
+        ..GridOptions::default()
+    }))
+    .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            max_vehicles: a.vehicles,
+            ..WorldConfig::default()
+        },
+    );
+    world.step();
+    let rss_map = resident_bytes();
     let placed = populate(&mut world, a.vehicles);
     let pool = thread_pool(a.threads)?;
     let mut durations = Vec::with_capacity(a.ticks as usize);
@@ -74,6 +99,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             world.drain_events().for_each(drop);
         }
     });
+    let rss_traffic = resident_bytes();
     let total: f64 = durations.iter().sum();
     durations.sort_by(f64::total_cmp);
     let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
@@ -88,6 +114,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         tick_p50_ms: pct(0.5),
         tick_p99_ms: pct(0.99),
         realtime_factor_at_dt_0_02: 0.02 / (total / a.ticks as f64),
+        bytes_per_vehicle: rss_traffic.saturating_sub(rss_map) as f64 / placed.max(1) as f64,
     };
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

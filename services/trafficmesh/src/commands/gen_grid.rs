@@ -27,12 +27,23 @@ pub fn run(a: GenGridArgs) -> Result<()> {
     if !(a.block.is_finite() && a.block >= 60.0) {
         bail!("--block must be at least 60 metres, got {}", a.block);
     }
-    let map = grid_map(&GridOptions { size: a.size, block: a.block, crosswalks: a.crosswalks, ..GridOptions::default() });
+    let map = grid_map(&GridOptions {
+        size: a.size,
+        block: a.block,
+        crosswalks: a.crosswalks,
+        ..GridOptions::default()
+    });
     let text = serde_json::to_string_pretty(&map)? + "\n";
     match a.out {
         Some(path) => {
             write_atomic(&path, text.as_bytes())?;
-            eprintln!("wrote {} ({} lanes, {} light groups, {} crosswalks)", path.display(), map.lanes.len(), map.light_groups.len(), map.crosswalks.len());
+            eprintln!(
+                "wrote {} ({} lanes, {} light groups, {} crosswalks)",
+                path.display(),
+                map.lanes.len(),
+                map.light_groups.len(),
+                map.crosswalks.len()
+            );
         }
         None => print!("{text}"),
     }

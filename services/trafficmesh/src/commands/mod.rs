@@ -15,12 +15,19 @@ pub fn load_network(path: &Path) -> Result<LaneNetwork> {
             "{}: {} problem(s):\n  {}",
             path.display(),
             problems.len(),
-            problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n  ")
+            problems
+                .iter()
+                .map(|p| p.to_string())
+                .collect::<Vec<_>>()
+                .join("\n  ")
         )
     })
 }
 
 /// A rayon pool of `threads` workers (0 = one per core).
 pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
-    rayon::ThreadPoolBuilder::new().num_threads(threads).build().context("cannot start worker threads")
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .context("cannot start worker threads")
 }

@@ -64,16 +64,29 @@ struct Summary {
 
 pub fn run(a: SimArgs) -> Result<()> {
     if !(a.duration.is_finite() && a.duration > 0.0) {
-        bail!("--duration must be a positive number of seconds, got {}", a.duration);
+        bail!(
+            "--duration must be a positive number of seconds, got {}",
+            a.duration
+        );
     }
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
     let net = load_network(&a.map)?;
-    let mut world = World::new(net, WorldConfig { seed: a.seed, max_vehicles: a.max_vehicles, dt: a.dt, ..WorldConfig::default() });
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            seed: a.seed,
+            max_vehicles: a.max_vehicles,
+            dt: a.dt,
+            ..WorldConfig::default()
+        },
+    );
     if let Some(path) = &a.spawn_config {
         let config = trafficmesh_maps::load_spawn_config(path)?;
-        world.set_spawn_config(config).with_context(|| format!("{}", path.display()))?;
+        world
+            .set_spawn_config(config)
+            .with_context(|| format!("{}", path.display()))?;
     }
     if let Some(dir) = &a.out {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
@@ -81,7 +94,8 @@ pub fn run(a: SimArgs) -> Result<()> {
     let pool = thread_pool(a.threads)?;
     let ticks = (a.duration / a.dt).round() as u64;
     let progress = ProgressBar::new(ticks).with_style(
-        ProgressStyle::with_template("{bar:40} {percent:>3}% sim {msg} eta {eta}").expect("valid template"),
+        ProgressStyle::with_template("{bar:40} {percent:>3}% sim {msg} eta {eta}")
+            .expect("valid template"),
     );
 
     let mut hash = TrajectoryHash::default();
@@ -105,7 +119,7 @@ pub fn run(a: SimArgs) -> Result<()> {
                     _ => {}
                 }
             }
-            if tick % 250 == 0 {
+            if tick.is_multiple_of(250) {
                 progress.set_position(tick);
                 progress.set_message(format!("{:.0}s, {n} vehicles", world.time()));
             }
@@ -116,8 +130,14 @@ pub fn run(a: SimArgs) -> Result<()> {
 
     if let Some(dir) = &a.out {
         output::write_trips(&dir.join("trips.csv"), &trips, &world)?;
-        trafficmesh_maps::write_atomic(&dir.join("traffic_branch_decisions.csv"), world.branch_csv().as_bytes())?;
-        trafficmesh_maps::save_spawn_config(&dir.join("traffic_spawn.json"), &world.spawn_config())?;
+        trafficmesh_maps::write_atomic(
+            &dir.join("traffic_branch_decisions.csv"),
+            world.branch_csv().as_bytes(),
+        )?;
+        trafficmesh_maps::save_spawn_config(
+            &dir.join("traffic_spawn.json"),
+            &world.spawn_config(),
+        )?;
     }
     let summary = Summary {
         map: a.map.display().to_string(),

@@ -24,7 +24,15 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
         if distance < 0.0 {
             continue;
         }
-        return LightView { lane: Some(lane), distance, color: snap.lights.state(group).color };
+        return LightView {
+            lane: Some(lane),
+            distance,
+            color: snap.lights.state(group).color,
+        };
     }
-    LightView { lane: None, distance: f64::INFINITY, color: LightColor::Green }
+    LightView {
+        lane: None,
+        distance: f64::INFINITY,
+        color: LightColor::Green,
+    }
 }

@@ -53,15 +53,19 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
     let v = &snap.vehicles[i];
     let light = light::check(snap, v);
     let row = right_of_way::next_phase(snap, i);
-    let zebra = match try_get_blocked_stop(&snap.net.crosswalks, snap.occupancy, v.front, v.forward()) {
-        Some((distance, area)) => ZebraState {
-            is_blocked: true,
-            distance_to_stop: distance,
-            area: Some(area),
-            was_blocked: v.zebra.is_blocked,
-        },
-        None => ZebraState { was_blocked: v.zebra.is_blocked, ..ZebraState::default() },
-    };
+    let zebra =
+        match try_get_blocked_stop(&snap.net.crosswalks, snap.occupancy, v.front, v.forward()) {
+            Some((distance, area)) => ZebraState {
+                is_blocked: true,
+                distance_to_stop: distance,
+                area: Some(area),
+                was_blocked: v.zebra.is_blocked,
+            },
+            None => ZebraState {
+                was_blocked: v.zebra.is_blocked,
+                ..ZebraState::default()
+            },
+        };
     Perception {
         distance_to_front: obstacles::distance_to_front(snap, i),
         is_turning: curve::is_turning(snap.net, v),

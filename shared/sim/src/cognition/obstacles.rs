@@ -56,13 +56,24 @@ fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> f64 {
 }
 
 /// Bodies standing in the conflict zones of `lane` ahead of us.
-fn conflicting_bodies(snap: &Snapshot, i: usize, lane: u32, offset: f64, range: f64, best: f64) -> f64 {
+fn conflicting_bodies(
+    snap: &Snapshot,
+    i: usize,
+    lane: u32,
+    offset: f64,
+    range: f64,
+    best: f64,
+) -> f64 {
     let v = &snap.vehicles[i];
     let mut nearest = best;
     for c in &snap.net.lane(lane).conflicts {
         let zone_start = offset + c.a0;
         let zone_end = offset + c.a1;
-        if zone_end <= 0.0 || zone_start > range || zone_start >= nearest || v.path.contains(&c.other) {
+        if zone_end <= 0.0
+            || zone_start > range
+            || zone_start >= nearest
+            || v.path.contains(&c.other)
+        {
             continue;
         }
         if !c.parallel && zone_start <= 0.0 {
@@ -89,7 +100,9 @@ fn conflicting_bodies(snap: &Snapshot, i: usize, lane: u32, offset: f64, range: 
 
 /// "Don't block the box": is there room on the lane after the junction lane path[k]?
 fn exit_has_room(snap: &Snapshot, v: &Vehicle, k: usize) -> bool {
-    let Some(&exit) = v.path.get(k + 1) else { return true };
+    let Some(&exit) = v.path.get(k + 1) else {
+        return true;
+    };
     match snap.index.on_lane(exit).first() {
         Some(occ) => {
             occ.rear >= v.length + EXIT_ROOM_MARGIN
@@ -111,7 +124,10 @@ fn ego_distance(net: &LaneNetwork, v: &Vehicle, ego: &Ego, range: f64) -> f64 {
     for &lane in &v.path {
         let line = &net.lane(lane).line;
         for seg in 0..line.point_count() - 1 {
-            let (s0, s1) = (offset + line.vertices[seg].cum, offset + line.vertices[seg + 1].cum);
+            let (s0, s1) = (
+                offset + line.vertices[seg].cum,
+                offset + line.vertices[seg + 1].cum,
+            );
             if s1 <= 0.0 {
                 continue;
             }
@@ -131,7 +147,13 @@ fn ego_distance(net: &LaneNetwork, v: &Vehicle, ego: &Ego, range: f64) -> f64 {
 }
 
 /// Distance along a->b to the first point where the box enters the corridor.
-fn first_hit(a: DVec2, b: DVec2, corners: &[DVec2; 4], center: DVec2, half_width: f64) -> Option<f64> {
+fn first_hit(
+    a: DVec2,
+    b: DVec2,
+    corners: &[DVec2; 4],
+    center: DVec2,
+    half_width: f64,
+) -> Option<f64> {
     let len = a.distance(b);
     if len < 1e-9 {
         return None;

@@ -8,7 +8,10 @@ use crate::vehicle::Vehicle;
 
 /// Lanes of the vehicle's path with the along-path distance from its front bumper
 /// to each lane's start (negative for the lane it is on).
-pub fn lanes_ahead<'a>(net: &'a LaneNetwork, v: &'a Vehicle) -> impl Iterator<Item = (usize, LaneId, f64)> + 'a {
+pub fn lanes_ahead<'a>(
+    net: &'a LaneNetwork,
+    v: &'a Vehicle,
+) -> impl Iterator<Item = (usize, LaneId, f64)> + 'a {
     let mut offset = -v.s;
     v.path.iter().enumerate().map(move |(k, &lane)| {
         let here = offset;
@@ -56,7 +59,11 @@ pub struct DeadEnd;
 
 /// Appends one lane to the path: the route's next lane, else a branch choice.
 /// Returns the choice made, if it was a choice between branches.
-pub fn extend_path(net: &LaneNetwork, policy: &BranchPolicy, v: &mut Vehicle) -> Result<Option<BranchChoice>, DeadEnd> {
+pub fn extend_path(
+    net: &LaneNetwork,
+    policy: &BranchPolicy,
+    v: &mut Vehicle,
+) -> Result<Option<BranchChoice>, DeadEnd> {
     if let Some(route) = &mut v.route
         && route.index + 1 < route.lanes.len()
     {

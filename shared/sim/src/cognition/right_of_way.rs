@@ -47,7 +47,10 @@ impl RowInfo {
         let first_int = lanes_ahead(net, v).find(|(_, lane, _)| net.lane(*lane).intersection);
         let on_intersection = net.lane(v.path[0]).intersection;
         let Some((k, lane, offset)) = first_int else {
-            return RowInfo { on_intersection, ..RowInfo::default() };
+            return RowInfo {
+                on_intersection,
+                ..RowInfo::default()
+            };
         };
         let window = MIN_DISTANCE_TO_INTERSECTION.max(v.speed * APPROACH_TIME);
         let obstructed = offset > v.distance_to_front;
@@ -113,10 +116,26 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = snap.row[i];
     let candidates = snap.junctions.of(info.junction(snap.net));
-    let ctx = Ctx { snap, i, v, info, candidates };
+    let ctx = Ctx {
+        snap,
+        i,
+        v,
+        info,
+        candidates,
+    };
     let keep = |phase, hit: Hit| match hit {
-        Some((dominating, point)) => RowDecision { phase, point, lane: v.yield_lane, dominating },
-        None => RowDecision { phase: YieldPhase::None, point: v.yield_point, lane: v.yield_lane, dominating: None },
+        Some((dominating, point)) => RowDecision {
+            phase,
+            point,
+            lane: v.yield_lane,
+            dominating,
+        },
+        None => RowDecision {
+            phase: YieldPhase::None,
+            point: v.yield_point,
+            lane: v.yield_lane,
+            dominating: None,
+        },
     };
     let to = |phase, (dominating, point): (Option<VehicleId>, DVec2)| RowDecision {
         phase,
@@ -124,7 +143,12 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
         lane: v.yield_lane,
         dominating,
     };
-    let stay = |phase| RowDecision { phase, point: v.yield_point, lane: v.yield_lane, dominating: None };
+    let stay = |phase| RowDecision {
+        phase,
+        point: v.yield_point,
+        lane: v.yield_lane,
+        dominating: None,
+    };
     let on = info.on_intersection;
     match v.yield_phase {
         YieldPhase::None => {
@@ -133,7 +157,9 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
                 .map(|(_, l)| l)
                 .filter(|&l| !snap.net.lane(l).right_of_way.is_empty());
             if info.considered && !on {
-                let (_, lane) = info.first_int.expect("considered implies an intersection ahead");
+                let (_, lane) = info
+                    .first_int
+                    .expect("considered implies an intersection ahead");
                 RowDecision {
                     phase: YieldPhase::EnteringIntersection,
                     point: snap.net.lane(lane).stop_point(0),
@@ -141,9 +167,19 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
                     dominating: None,
                 }
             } else if on {
-                RowDecision { phase: YieldPhase::AtIntersection, point: v.yield_point, lane: yield_lane, dominating: None }
+                RowDecision {
+                    phase: YieldPhase::AtIntersection,
+                    point: v.yield_point,
+                    lane: yield_lane,
+                    dominating: None,
+                }
             } else {
-                RowDecision { phase: YieldPhase::None, point: v.yield_point, lane: None, dominating: None }
+                RowDecision {
+                    phase: YieldPhase::None,
+                    point: v.yield_point,
+                    lane: None,
+                    dominating: None,
+                }
             }
         }
         YieldPhase::EnteringIntersection => {
@@ -172,22 +208,37 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
                 stay(YieldPhase::AtIntersection)
             }
         }
-        YieldPhase::IntersectionBlocked => keep(YieldPhase::IntersectionBlocked, ctx.intersection_busy()),
+        YieldPhase::IntersectionBlocked => {
+            keep(YieldPhase::IntersectionBlocked, ctx.intersection_busy())
+        }
         YieldPhase::LanesRulesEnteringIntersection => {
-            let hit = if on { None } else { ctx.should_yield_due_to_lanes(false) };
+            let hit = if on {
+                None
+            } else {
+                ctx.should_yield_due_to_lanes(false)
+            };
             keep(YieldPhase::LanesRulesEnteringIntersection, hit)
         }
-        YieldPhase::LanesRulesAtIntersection => {
-            keep(YieldPhase::LanesRulesAtIntersection, ctx.should_yield_due_to_lanes(true))
-        }
+        YieldPhase::LanesRulesAtIntersection => keep(
+            YieldPhase::LanesRulesAtIntersection,
+            ctx.should_yield_due_to_lanes(true),
+        ),
         YieldPhase::LeftHandRuleEnteringIntersection => {
-            let hit = if on { None } else { ctx.right_hand_rule_entering() };
+            let hit = if on {
+                None
+            } else {
+                ctx.right_hand_rule_entering()
+            };
             keep(YieldPhase::LeftHandRuleEnteringIntersection, hit)
         }
-        YieldPhase::LeftHandRuleAtIntersection => {
-            keep(YieldPhase::LeftHandRuleAtIntersection, ctx.right_hand_rule_on_intersection())
-        }
-        YieldPhase::ForcingPriority => keep(YieldPhase::ForcingPriority, ctx.some_vehicle_forcing_priority()),
+        YieldPhase::LeftHandRuleAtIntersection => keep(
+            YieldPhase::LeftHandRuleAtIntersection,
+            ctx.right_hand_rule_on_intersection(),
+        ),
+        YieldPhase::ForcingPriority => keep(
+            YieldPhase::ForcingPriority,
+            ctx.some_vehicle_forcing_priority(),
+        ),
     }
 }
 
@@ -201,7 +252,8 @@ impl Ctx<'_, '_> {
         self.candidates.iter().filter_map(move |&j| {
             let j = j as usize;
             let o = &self.snap.vehicles[j];
-            let near = o.front.distance_squared(self.v.front) < INTERACTION_RADIUS * INTERACTION_RADIUS;
+            let near =
+                o.front.distance_squared(self.v.front) < INTERACTION_RADIUS * INTERACTION_RADIUS;
             (j != self.i && near).then(|| (o, self.snap.row[j]))
         })
     }
@@ -244,9 +296,7 @@ impl Ctx<'_, '_> {
             return true;
         }
         self.net().lane(a).conflicts.iter().any(|c| {
-            c.other == b
-                && (ka > 0 || self.v.rear_s() < c.a1)
-                && (kb > 0 || o.rear_s() < c.b1)
+            c.other == b && (ka > 0 || self.v.rear_s() < c.a1) && (kb > 0 || o.rear_s() < c.b1)
         })
     }
 
@@ -257,9 +307,12 @@ impl Ctx<'_, '_> {
         }
         let (a, b) = (self.v.path[0], o.path[0]);
         a != b
-            && self.net().lane(a).conflicts.iter().any(|c| {
-                c.other == b && self.v.s < c.a1 && o.rear_s() - self.v.width < c.b1
-            })
+            && self
+                .net()
+                .lane(a)
+                .conflicts
+                .iter()
+                .any(|c| c.other == b && self.v.s < c.a1 && o.rear_s() - self.v.width < c.b1)
     }
 
     /// Where to stop before the junction: our stop line, else the junction entrance.
@@ -273,7 +326,10 @@ impl Ctx<'_, '_> {
     }
 
     fn forced_through(&self) -> bool {
-        let j = self.info.first_int.and_then(|(_, l)| self.net().lane(l).junction);
+        let j = self
+            .info
+            .first_int
+            .and_then(|(_, l)| self.net().lane(l).junction);
         j.is_some() && self.v.forced_through == j
     }
 
@@ -340,7 +396,8 @@ impl Ctx<'_, '_> {
         let lane_id = self.v.yield_lane?;
         let lane = self.net().lane(lane_id);
         let stop = if on_intersection {
-            lane.stop_center.unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
+            lane.stop_center
+                .unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
         } else {
             lane.stop_center.unwrap_or(lane.line.point(0))
         };
@@ -374,7 +431,10 @@ impl Ctx<'_, '_> {
 
     /// The other vehicle is on, or about to enter, `lane` as its first junction lane.
     fn dominates(&self, o: &Vehicle, oi: &RowInfo, lane: LaneId) -> bool {
-        let next_is_junction = o.path.get(1).is_some_and(|&l| self.net().lane(l).intersection);
+        let next_is_junction = o
+            .path
+            .get(1)
+            .is_some_and(|&l| self.net().lane(l).intersection);
         (oi.on_intersection || next_is_junction) && Self::first_int_lane(oi) == Some(lane)
     }
 }

@@ -52,26 +52,43 @@ impl SpawnLimit {
 }
 
 /// Builds the simulators of the scene, each with its own random stream.
-pub fn from_specs(specs: &[SimulatorSpec], seed: u64, generation: u64) -> Vec<Box<dyn TrafficSimulator>> {
+pub fn from_specs(
+    specs: &[SimulatorSpec],
+    seed: u64,
+    generation: u64,
+) -> Vec<Box<dyn TrafficSimulator>> {
     specs
         .iter()
         .enumerate()
         .map(|(i, spec)| {
             let rng = SimRng::new(seed, (generation << 32) | i as u64);
             let sim: Box<dyn TrafficSimulator> = match spec {
-                SimulatorSpec::Random { lanes, kinds, maximum_spawns, enabled, attempts_per_tick } => {
-                    Box::new(RandomTrafficSimulator::new(
-                        lanes.clone(),
-                        kinds.clone(),
-                        *maximum_spawns,
-                        *enabled,
-                        *attempts_per_tick,
-                        rng,
-                    ))
-                }
-                SimulatorSpec::Route { route, kinds, maximum_spawns, enabled } => Box::new(
-                    RouteTrafficSimulator::new(route.clone(), kinds.clone(), *maximum_spawns, *enabled, rng),
-                ),
+                SimulatorSpec::Random {
+                    lanes,
+                    kinds,
+                    maximum_spawns,
+                    enabled,
+                    attempts_per_tick,
+                } => Box::new(RandomTrafficSimulator::new(
+                    lanes.clone(),
+                    kinds.clone(),
+                    *maximum_spawns,
+                    *enabled,
+                    *attempts_per_tick,
+                    rng,
+                )),
+                SimulatorSpec::Route {
+                    route,
+                    kinds,
+                    maximum_spawns,
+                    enabled,
+                } => Box::new(RouteTrafficSimulator::new(
+                    route.clone(),
+                    kinds.clone(),
+                    *maximum_spawns,
+                    *enabled,
+                    rng,
+                )),
             };
             sim
         })

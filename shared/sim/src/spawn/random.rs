@@ -25,7 +25,10 @@ impl RandomTrafficSimulator {
         RandomTrafficSimulator {
             lanes,
             kinds,
-            limit: SpawnLimit { maximum: maximum_spawns, spawned: 0 },
+            limit: SpawnLimit {
+                maximum: maximum_spawns,
+                spawned: 0,
+            },
             enabled,
             pending: vec![None; attempts_per_tick.max(1) as usize],
             rng,
@@ -49,7 +52,12 @@ impl TrafficSimulator for RandomTrafficSimulator {
                 }
             };
             let lane = self.lanes[self.rng.below(self.lanes.len())];
-            out.push(SpawnProposal { lane, kind, route: None, slot });
+            out.push(SpawnProposal {
+                lane,
+                kind,
+                route: None,
+                slot,
+            });
         }
     }
 

@@ -15,11 +15,20 @@ pub struct RouteTrafficSimulator {
 }
 
 impl RouteTrafficSimulator {
-    pub fn new(route: Vec<LaneId>, kinds: Vec<usize>, maximum_spawns: u32, enabled: bool, rng: SimRng) -> Self {
+    pub fn new(
+        route: Vec<LaneId>,
+        kinds: Vec<usize>,
+        maximum_spawns: u32,
+        enabled: bool,
+        rng: SimRng,
+    ) -> Self {
         RouteTrafficSimulator {
             route: route.into(),
             kinds,
-            limit: SpawnLimit { maximum: maximum_spawns, spawned: 0 },
+            limit: SpawnLimit {
+                maximum: maximum_spawns,
+                spawned: 0,
+            },
             enabled,
             pending: None,
             rng,
@@ -33,8 +42,15 @@ impl TrafficSimulator for RouteTrafficSimulator {
     }
 
     fn propose(&mut self, _net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
-        let kind = *self.pending.get_or_insert_with(|| self.kinds[self.rng.below(self.kinds.len())]);
-        out.push(SpawnProposal { lane: self.route[0], kind, route: Some(self.route.clone()), slot: 0 });
+        let kind = *self
+            .pending
+            .get_or_insert_with(|| self.kinds[self.rng.below(self.kinds.len())]);
+        out.push(SpawnProposal {
+            lane: self.route[0],
+            kind,
+            route: Some(self.route.clone()),
+            slot: 0,
+        });
     }
 
     fn spawned(&mut self, _slot: usize) {

@@ -10,7 +10,7 @@ use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
 use crate::branching::{BranchPolicy, BranchStats};
-use crate::crosswalk::{OccupancyChange, Occupancy, OccupantType};
+use crate::crosswalk::{Occupancy, OccupancyChange, OccupantType};
 use crate::ego::Ego;
 use crate::events::{DespawnReason, SimEvent};
 use crate::lane_index::LaneIndex;
@@ -138,7 +138,10 @@ impl World {
         &self.vehicles
     }
     pub fn vehicle(&self, id: VehicleId) -> Option<&Vehicle> {
-        self.vehicles.binary_search_by_key(&id, |v| v.id).ok().map(|i| &self.vehicles[i])
+        self.vehicles
+            .binary_search_by_key(&id, |v| v.id)
+            .ok()
+            .map(|i| &self.vehicles[i])
     }
     pub fn lights(&self) -> &Lights {
         &self.lights
@@ -197,14 +200,25 @@ impl World {
 
     /// Forces a light group to a colour or gives it a new program.
     pub fn set_light(&mut self, group: &str, control: LightControl) -> Result<(), WorldError> {
-        let g = self.net.light_group(group).ok_or_else(|| WorldError::UnknownLightGroup(group.into()))?;
+        let g = self
+            .net
+            .light_group(group)
+            .ok_or_else(|| WorldError::UnknownLightGroup(group.into()))?;
         self.lights.set_control(g, control, self.time);
         Ok(())
     }
 
     /// An occupant (pedestrian, cyclist, ...) enters a crosswalk area.
-    pub fn crosswalk_enter(&mut self, area: &str, root: &str, kind: OccupantType) -> Result<OccupancyChange, WorldError> {
-        let a = self.net.crosswalk(area).ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
+    pub fn crosswalk_enter(
+        &mut self,
+        area: &str,
+        root: &str,
+        kind: OccupantType,
+    ) -> Result<OccupancyChange, WorldError> {
+        let a = self
+            .net
+            .crosswalk(area)
+            .ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
         let change = self.occupancy.enter(&self.net.crosswalks, a, root, kind);
         if change == OccupancyChange::Entered && self.net.crosswalks[a].debug_logs {
             tracing::info!("[Zebra] '{root}' entered '{area}'");
@@ -213,8 +227,15 @@ impl World {
     }
 
     /// An occupant leaves a crosswalk area.
-    pub fn crosswalk_exit(&mut self, area: &str, root: &str) -> Result<OccupancyChange, WorldError> {
-        let a = self.net.crosswalk(area).ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
+    pub fn crosswalk_exit(
+        &mut self,
+        area: &str,
+        root: &str,
+    ) -> Result<OccupancyChange, WorldError> {
+        let a = self
+            .net
+            .crosswalk(area)
+            .ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
         let change = self.occupancy.exit(a, root);
         if change == OccupancyChange::Exited && self.net.crosswalks[a].debug_logs {
             tracing::info!("[Zebra] '{root}' exited '{area}'");
@@ -248,11 +269,21 @@ impl World {
     pub fn restart(&mut self, max_vehicles: usize) {
         let time = self.time;
         for v in self.vehicles.drain(..) {
-            self.events.push(SimEvent::Despawned(step::trip_record(&self.net, &v, time, DespawnReason::Restart)));
+            self.events.push(SimEvent::Despawned(step::trip_record(
+                &self.net,
+                &v,
+                time,
+                DespawnReason::Restart,
+            )));
         }
         self.generation += 1;
-        let extra: Vec<_> = self.simulators.drain(..).skip(self.net.simulators.len()).collect();
-        self.simulators = spawn::from_specs(&self.net.simulators, self.config.seed, self.generation);
+        let extra: Vec<_> = self
+            .simulators
+            .drain(..)
+            .skip(self.net.simulators.len())
+            .collect();
+        self.simulators =
+            spawn::from_specs(&self.net.simulators, self.config.seed, self.generation);
         self.simulators.extend(extra);
         self.priorities = vec![0; self.simulators.len()];
         self.last_spawn.fill(f64::NEG_INFINITY);

@@ -87,7 +87,13 @@ impl World {
             spawned_here.push((start, kind.length));
             // The whole body on the spawn lane: rear bumper at its start (AWSIM puts the
             // rear axle there, which leaves a long overhang in the junction behind).
-            self.register(proposal.kind, lane, kind.length, 0.0, proposal.route.clone());
+            self.register(
+                proposal.kind,
+                lane,
+                kind.length,
+                0.0,
+                proposal.route.clone(),
+            );
             self.last_spawn[lane as usize] = self.time;
             if members.len() > 1 {
                 for &k in &members {
@@ -101,18 +107,32 @@ impl World {
 
     /// IsSpawnable: the vehicle's box at the lane start is clear of every vehicle,
     /// of the ego, and of vehicles about to drive onto the lane.
-    pub(super) fn is_spawnable(&self, kind: usize, lane: LaneId, spawned_here: &[(DVec2, f64)]) -> bool {
+    pub(super) fn is_spawnable(
+        &self,
+        kind: usize,
+        lane: LaneId,
+        spawned_here: &[(DVec2, f64)],
+    ) -> bool {
         let kind = &self.net.kinds[kind];
         let l = self.net.lane(lane);
         let (rear, front) = (0.0, kind.length);
         let overlaps = |r: f64, f: f64| r < front + CLEARANCE && f > rear - CLEARANCE;
-        if self.index.on_lane(lane).iter().any(|o| overlaps(o.rear, o.front)) {
+        if self
+            .index
+            .on_lane(lane)
+            .iter()
+            .any(|o| overlaps(o.rear, o.front))
+        {
             return false;
         }
         for c in &l.conflicts {
             if c.a0 < front + CLEARANCE
                 && c.a1 > rear - CLEARANCE
-                && self.index.on_lane(c.other).iter().any(|o| o.front >= c.b0 && o.rear <= c.b1)
+                && self
+                    .index
+                    .on_lane(c.other)
+                    .iter()
+                    .any(|o| o.front >= c.b0 && o.rear <= c.b1)
             {
                 return false;
             }
@@ -128,7 +148,10 @@ impl World {
             }
         }
         let start = l.line.point(0);
-        if spawned_here.iter().any(|&(p, len)| p.distance(start) < len + kind.length) {
+        if spawned_here
+            .iter()
+            .any(|&(p, len)| p.distance(start) < len + kind.length)
+        {
             return false;
         }
         if let Some(ego) = &self.ego {
@@ -188,12 +211,20 @@ impl World {
             should_despawn: false,
             despawn_reason: None,
             rng: SimRng::new(self.config.seed, (1 << 63) | id),
-            trip: TripStats { spawn_time: self.time, ..TripStats::default() },
+            trip: TripStats {
+                spawn_time: self.time,
+                ..TripStats::default()
+            },
         };
         let (p, _) = point_on_path(&self.net, &v, 0.0);
         v.front = p;
         update_pose(&self.net, &mut v);
-        self.events.push(SimEvent::Spawned { id, kind: k.name.clone(), lane, time: self.time });
+        self.events.push(SimEvent::Spawned {
+            id,
+            kind: k.name.clone(),
+            lane,
+            time: self.time,
+        });
         self.spawn_stats.spawned += 1;
         self.vehicles.push(v);
         id
@@ -202,25 +233,54 @@ impl World {
     /// Places a vehicle directly (scenarios, tests, benchmarks): `kind` at
     /// front-bumper arc length `s` on `lane`, moving at `speed`. It bypasses
     /// the spawn checks but is otherwise an ordinary NPC.
-    pub fn place_vehicle(&mut self, kind: &str, lane: &str, s: f64, speed: f64) -> Result<VehicleId, super::WorldError> {
-        let lane_id = self.net.lane_id(lane).ok_or_else(|| super::WorldError::UnknownLane(lane.into()))?;
+    pub fn place_vehicle(
+        &mut self,
+        kind: &str,
+        lane: &str,
+        s: f64,
+        speed: f64,
+    ) -> Result<VehicleId, super::WorldError> {
+        let lane_id = self
+            .net
+            .lane_id(lane)
+            .ok_or_else(|| super::WorldError::UnknownLane(lane.into()))?;
         let length = self.net.lane(lane_id).length();
         if !(0.0..=length).contains(&s) {
-            return Err(super::WorldError::OutsideLane { lane: lane.into(), s, length });
+            return Err(super::WorldError::OutsideLane {
+                lane: lane.into(),
+                s,
+                length,
+            });
         }
-        let k = self.net.kind_index(kind).ok_or_else(|| super::WorldError::UnknownKind(kind.into()))?;
+        let k = self
+            .net
+            .kind_index(kind)
+            .ok_or_else(|| super::WorldError::UnknownKind(kind.into()))?;
         Ok(self.register(k, lane_id, s, speed, None))
     }
 
     /// Places a vehicle that follows `route` (lane names, the first is where it is).
-    pub fn place_vehicle_on_route(&mut self, kind: &str, route: &[&str], s: f64, speed: f64) -> Result<VehicleId, super::WorldError> {
+    pub fn place_vehicle_on_route(
+        &mut self,
+        kind: &str,
+        route: &[&str],
+        s: f64,
+        speed: f64,
+    ) -> Result<VehicleId, super::WorldError> {
         let lanes: Vec<LaneId> = route
             .iter()
-            .map(|n| self.net.lane_id(n).ok_or_else(|| super::WorldError::UnknownLane(n.to_string())))
+            .map(|n| {
+                self.net
+                    .lane_id(n)
+                    .ok_or_else(|| super::WorldError::UnknownLane(n.to_string()))
+            })
             .collect::<Result<_, _>>()?;
         let id = self.place_vehicle(kind, route[0], s, speed)?;
         let v = self.vehicles.last_mut().expect("just placed");
-        v.route = Some(RouteProgress { lanes: lanes.into(), index: 0 });
+        v.route = Some(RouteProgress {
+            lanes: lanes.into(),
+            index: 0,
+        });
         Ok(id)
     }
 }

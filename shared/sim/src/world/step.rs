@@ -14,7 +14,12 @@ use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 use crate::visualization::{turn_signal, update_trip};
 
-pub(super) fn trip_record(net: &LaneNetwork, v: &Vehicle, time: f64, reason: DespawnReason) -> TripRecord {
+pub(super) fn trip_record(
+    net: &LaneNetwork,
+    v: &Vehicle,
+    time: f64,
+    reason: DespawnReason,
+) -> TripRecord {
     TripRecord {
         id: v.id,
         kind: net.kinds[v.kind].name.clone(),
@@ -39,12 +44,17 @@ impl World {
         self.lights.update(self.time);
         self.spawn_phase();
         self.follow_lanes();
-        self.index = LaneIndex::build(self.net.lanes.len(), &self.vehicles, |l| self.net.lane(l).length());
+        self.index = LaneIndex::build(self.net.lanes.len(), &self.vehicles, |l| {
+            self.net.lane(l).length()
+        });
 
         let perceptions = self.cognition();
         self.zebra_events(&perceptions);
         let (net, config) = (&self.net, &self.config.vehicle);
-        self.vehicles.par_iter_mut().zip(perceptions.par_iter()).for_each(|(v, p)| p.apply(v));
+        self.vehicles
+            .par_iter_mut()
+            .zip(perceptions.par_iter())
+            .for_each(|(v, p)| p.apply(v));
         deadlock::break_cycles(&self.net, &mut self.vehicles);
         self.vehicles.par_iter_mut().for_each(|v| {
             if v.should_despawn {
@@ -83,7 +93,10 @@ impl World {
             }
             for choice in &decisions {
                 self.branch_stats.record(choice);
-                self.events.push(SimEvent::BranchDecision { id: v.id, choice: *choice });
+                self.events.push(SimEvent::BranchDecision {
+                    id: v.id,
+                    choice: *choice,
+                });
             }
         }
     }
@@ -91,7 +104,11 @@ impl World {
     /// Parallel perception of every vehicle from the same snapshot.
     fn cognition(&self) -> Vec<Perception> {
         let net = &self.net;
-        let row: Vec<RowInfo> = self.vehicles.par_iter().map(|v| RowInfo::of(net, v)).collect();
+        let row: Vec<RowInfo> = self
+            .vehicles
+            .par_iter()
+            .map(|v| RowInfo::of(net, v))
+            .collect();
         let junctions = JunctionBuckets::build(net, &row);
         let snap = Snapshot {
             net,
@@ -104,7 +121,10 @@ impl World {
             row: &row,
             junctions: &junctions,
         };
-        (0..self.vehicles.len()).into_par_iter().map(|i| perceive(&snap, i)).collect()
+        (0..self.vehicles.len())
+            .into_par_iter()
+            .map(|i| perceive(&snap, i))
+            .collect()
     }
 
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
@@ -122,7 +142,11 @@ impl World {
                             p.zebra.distance_to_stop
                         );
                     }
-                    self.events.push(SimEvent::ZebraStop { id: v.id, area, distance: p.zebra.distance_to_stop });
+                    self.events.push(SimEvent::ZebraStop {
+                        id: v.id,
+                        area,
+                        distance: p.zebra.distance_to_stop,
+                    });
                 }
                 (true, false) => {
                     let area = v.zebra.area.expect("blocked implies an area");

@@ -46,12 +46,16 @@ pub fn signalised_road() -> MapFile {
     let mut junction = lane("junction", &[[200.0, 0.0], [220.0, 0.0]], &["exit"]);
     junction["intersection"] = json!(true);
     map(
-        vec![approach, junction, lane("exit", &[[220.0, 0.0], [600.0, 0.0]], &[])],
+        vec![
+            approach,
+            junction,
+            lane("exit", &[[220.0, 0.0], [600.0, 0.0]], &[]),
+        ],
         json!({ "light_groups": [{ "name": "L", "program": { "green": 30, "yellow": 3, "red": 30 } }] }),
     )
 }
 
-pub fn vehicle<'a>(world: &'a World, id: u64) -> &'a Vehicle {
+pub fn vehicle(world: &World, id: u64) -> &Vehicle {
     world.vehicle(id).expect("vehicle exists")
 }
 
@@ -76,7 +80,12 @@ pub fn run_for(world: &mut World, seconds: f64) {
 pub fn footprint(v: &Vehicle, margin: f64) -> [DVec2; 4] {
     let heading = DVec2::from_angle(v.pose.yaw);
     let center = DVec2::new(v.pose.x, v.pose.y) + heading * (v.front_offset - v.length * 0.5);
-    box_corners(center, v.pose.yaw, v.length * 0.5 - margin, v.width * 0.5 - margin)
+    box_corners(
+        center,
+        v.pose.yaw,
+        v.length * 0.5 - margin,
+        v.width * 0.5 - margin,
+    )
 }
 
 /// Pairs of vehicles whose footprints overlap (spatial hashing, not all pairs).
@@ -85,16 +94,26 @@ pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
     const CELL: f64 = 10.0;
     let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
     for (i, v) in vehicles.iter().enumerate() {
-        let key = ((v.pose.x / CELL).floor() as i64, (v.pose.y / CELL).floor() as i64);
+        let key = (
+            (v.pose.x / CELL).floor() as i64,
+            (v.pose.y / CELL).floor() as i64,
+        );
         cells.entry(key).or_default().push(i);
     }
     let mut pairs = Vec::new();
     for (i, v) in vehicles.iter().enumerate() {
-        let (cx, cy) = ((v.pose.x / CELL).floor() as i64, (v.pose.y / CELL).floor() as i64);
+        let (cx, cy) = (
+            (v.pose.x / CELL).floor() as i64,
+            (v.pose.y / CELL).floor() as i64,
+        );
         let a = footprint(v, margin);
         for dx in -1..=1 {
             for dy in -1..=1 {
-                for &j in cells.get(&(cx + dx, cy + dy)).map(Vec::as_slice).unwrap_or(&[]) {
+                for &j in cells
+                    .get(&(cx + dx, cy + dy))
+                    .map(Vec::as_slice)
+                    .unwrap_or(&[])
+                {
                     if j > i && boxes_overlap(&a, &footprint(&vehicles[j], margin)) {
                         pairs.push((v.id, vehicles[j].id));
                     }
