@@ -80,7 +80,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             ..WorldConfig::default()
         },
     );
-    world.step();
+    // Everything allocated from here on (vehicles, per-tick buffers) counts per vehicle.
     let rss_map = resident_bytes();
     let placed = populate(&mut world, a.vehicles);
     let pool = thread_pool(a.threads)?;
