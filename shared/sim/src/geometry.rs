@@ -90,6 +90,16 @@ impl Polyline {
         self.start.heading
     }
 
+    /// Heading of the last segment, radians.
+    pub fn end_heading(&self) -> f64 {
+        self.end.heading
+    }
+
+    /// Summed absolute heading change along the whole polyline, radians.
+    pub fn total_turn(&self) -> f64 {
+        self.end.turn_cum
+    }
+
     pub fn points(&self) -> impl Iterator<Item = DVec2> + '_ {
         self.vertices.iter().map(|v| v.point)
     }

@@ -21,9 +21,13 @@ pub fn is_turning(net: &LaneNetwork, v: &Vehicle) -> bool {
             break;
         }
         let line = &net.lane(lane).line;
-        if line.is_straight() {
-            total += angle_between(heading, line.start_heading());
-            heading = line.start_heading();
+        if offset >= 0.0 && offset + line.length() <= CURVE_LOOKAHEAD || line.is_straight() {
+            // The whole lane is ahead and inside the window: its inline summary is enough.
+            total += angle_between(heading, line.start_heading()) + line.total_turn();
+            if total > threshold {
+                return true;
+            }
+            heading = line.end_heading();
             offset += line.length();
             continue;
         }

@@ -5,7 +5,8 @@
 //! the "left-hand rule" phases yield to traffic on the right (the seed: "yielding
 //! to right-hand traffic"); the approach window is 18 m or 4 s of travel,
 //! whichever is longer; a vehicle with no stop line yields at the junction
-//! entrance rather than at its lane's first waypoint; headings are compared wrapped.
+//! entrance rather than at its lane's first waypoint; headings are compared wrapped;
+//! a vehicle waiting at its own red light does not evaluate the yield predicates.
 
 use glam::DVec2;
 use trafficmesh_model::{LightColor, YieldPhase};
@@ -185,6 +186,9 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
         YieldPhase::EnteringIntersection => {
             if on {
                 stay(YieldPhase::AtIntersection)
+            } else if info.waiting_at_red {
+                // Its own red light holds it already; re-evaluated the tick after green.
+                stay(YieldPhase::EnteringIntersection)
             } else if let Some(hit) = ctx.should_yield_due_to_lanes(false) {
                 to(YieldPhase::LanesRulesEnteringIntersection, hit)
             } else if let Some(hit) = ctx.intersection_busy() {
