@@ -4,71 +4,83 @@
 //! its junction, and the vehicle it was waiting for holds in FORCING_PRIORITY
 //! until the released one has crossed its path.
 
+use rayon::prelude::*;
 use trafficmesh_model::YieldPhase;
 
+use super::Perception;
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
 const STOPPED_SPEED: f64 = 0.05;
+const NOBODY: u32 = u32::MAX;
 
-/// The vehicle `v` is stopped waiting for, as an index (vehicles are sorted by id).
-fn waits_for(vehicles: &[Vehicle], v: &Vehicle) -> Option<usize> {
-    if !(v.yield_phase.is_yielding() && v.speed < STOPPED_SPEED) {
-        return None;
-    }
-    let id = v.dominating?;
-    vehicles.binary_search_by_key(&id, |o| o.id).ok()
-}
-
-/// Finds every waiting cycle in one pass over the "waits for" links (each vehicle
-/// has at most one, so the graph is a set of chains ending in cycles) and breaks
-/// it. Returns the number of cycles broken.
-pub fn break_cycles(net: &LaneNetwork, vehicles: &mut [Vehicle]) -> usize {
-    const UNSEEN: u32 = u32::MAX;
+/// Finds every waiting cycle in this tick's perceptions and breaks it, before
+/// they are applied. Each vehicle waits for at most one other, so the graph is a
+/// set of chains ending in cycles: one pass finds them all. Returns the number
+/// of cycles broken.
+pub fn break_cycles(
+    net: &LaneNetwork,
+    vehicles: &[Vehicle],
+    perceptions: &mut [Perception],
+) -> usize {
+    // Index of the vehicle each one is stopped waiting for (vehicles are sorted by id).
+    let waits: Vec<u32> = vehicles
+        .par_iter()
+        .zip(perceptions.par_iter())
+        .map(|(v, p)| {
+            let waiting = p.yield_phase.is_yielding() && v.speed < STOPPED_SPEED;
+            p.dominating
+                .filter(|_| waiting)
+                .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok())
+                .map_or(NOBODY, |i| i as u32)
+        })
+        .collect();
     let n = vehicles.len();
-    // Which walk first reached each vehicle; a walk that meets itself found a cycle.
-    let mut walk_of = vec![UNSEEN; n];
+    let mut walk_of = vec![NOBODY; n];
     let mut releases: Vec<(usize, usize)> = Vec::new();
     for start in 0..n {
-        if walk_of[start] != UNSEEN {
+        if walk_of[start] != NOBODY || waits[start] == NOBODY {
             continue;
         }
         let mut cur = start;
         loop {
             walk_of[cur] = start as u32;
-            let Some(next) = waits_for(vehicles, &vehicles[cur]) else { break };
+            let next = waits[cur];
+            if next == NOBODY {
+                break;
+            }
+            let next = next as usize;
             if walk_of[next] == start as u32 {
                 // A new cycle through `next`: release its lowest id (lowest index).
                 let mut lowest = next;
-                let mut k = waits_for(vehicles, &vehicles[next]).expect("on a cycle");
+                let mut k = waits[next] as usize;
                 while k != next {
                     lowest = lowest.min(k);
-                    k = waits_for(vehicles, &vehicles[k]).expect("on a cycle");
+                    k = waits[k] as usize;
                 }
-                let holder = waits_for(vehicles, &vehicles[lowest]).expect("on a cycle");
-                releases.push((lowest, holder));
+                releases.push((lowest, waits[lowest] as usize));
                 break;
             }
-            if walk_of[next] != UNSEEN {
+            if walk_of[next] != NOBODY {
                 break;
             }
             cur = next;
         }
     }
     for &(released, holder) in &releases {
-        let id = vehicles[released].id;
-        let v = &mut vehicles[released];
-        v.forced_through = v
+        let v = &vehicles[released];
+        let p = &mut perceptions[released];
+        p.forced_through = v
             .path
             .iter()
             .find(|&&l| net.lane(l).intersection)
             .and_then(|&l| net.lane(l).junction);
-        v.yield_phase = YieldPhase::None;
-        v.dominating = None;
-        let h = &mut vehicles[holder];
+        p.yield_phase = YieldPhase::None;
+        p.dominating = None;
+        let h = &mut perceptions[holder];
         h.yield_phase = YieldPhase::ForcingPriority;
-        h.dominating = Some(id);
-        h.yield_point = h.front;
+        h.dominating = Some(v.id);
+        h.yield_point = vehicles[holder].front;
     }
     releases.len()
 }

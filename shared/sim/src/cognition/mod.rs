@@ -45,6 +45,8 @@ pub struct Perception {
     pub yield_point: DVec2,
     pub yield_lane: Option<LaneId>,
     pub dominating: Option<VehicleId>,
+    /// Deadlock breaking let the vehicle through this junction.
+    pub forced_through: Option<u32>,
     pub zebra: ZebraState,
 }
 
@@ -76,6 +78,7 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
         yield_point: row.point,
         yield_lane: row.lane,
         dominating: row.dominating,
+        forced_through: v.forced_through,
         zebra,
     }
 }
@@ -91,6 +94,7 @@ impl Perception {
         v.yield_point = self.yield_point;
         v.yield_lane = self.yield_lane;
         v.dominating = self.dominating;
+        v.forced_through = self.forced_through;
         v.zebra = self.zebra;
     }
 }

@@ -3,6 +3,7 @@
 use rayon::prelude::*;
 
 use super::World;
+use crate::branching::BranchChoice;
 use crate::cognition::path::advance_and_extend;
 use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
@@ -48,50 +49,57 @@ impl World {
             self.net.lane(l).length()
         });
 
-        let perceptions = self.cognition();
+        let mut perceptions = self.cognition();
+        deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
         self.zebra_events(&perceptions);
         let (net, config) = (&self.net, &self.config.vehicle);
         self.vehicles
             .par_iter_mut()
             .zip(perceptions.par_iter())
-            .for_each(|(v, p)| p.apply(v));
-        deadlock::break_cycles(&self.net, &mut self.vehicles);
-        self.vehicles.par_iter_mut().for_each(|v| {
-            if v.should_despawn {
-                return;
-            }
-            v.speed_mode = decide(v, config);
-            step_speed(net, v, config, dt);
-            update_pose(net, v);
-            v.turn_signal = turn_signal(net, v);
-            update_trip(v, dt);
-        });
+            .for_each(|(v, p)| {
+                p.apply(v);
+                if v.should_despawn {
+                    return;
+                }
+                v.speed_mode = decide(v, config);
+                step_speed(net, v, config, dt);
+                update_pose(net, v);
+                v.turn_signal = turn_signal(net, v);
+                update_trip(v, dt);
+            });
         self.time += dt;
         self.ticks += 1;
         self.despawn_flagged();
     }
 
-    /// Sequential, in vehicle order: lane advance and branch choices (which draw
-    /// from each vehicle's own random stream and feed the statistics).
+    /// Lane advance and branch choices: parallel (each vehicle draws from its own
+    /// random stream), then recorded in vehicle order.
     fn follow_lanes(&mut self) {
-        let mut decisions = Vec::new();
+        let (net, policy) = (&self.net, &self.branch_policy);
         let decel = self.config.vehicle.deceleration;
-        for v in &mut self.vehicles {
-            if v.should_despawn {
-                continue;
-            }
-            decisions.clear();
-            advance_and_extend(&self.net, &self.branch_policy, v, decel, &mut decisions);
-            if v.should_despawn && v.despawn_reason.is_none() {
-                v.despawn_reason = Some(DespawnReason::DeadEnd);
-            }
-            if v.forced_through.is_some()
-                && !self.net.lane(v.path[0]).intersection
-                && v.prev_lane.is_some_and(|p| self.net.lane(p).intersection)
-            {
-                v.forced_through = None;
-            }
-            for choice in &decisions {
+        let decisions: Vec<Vec<BranchChoice>> = self
+            .vehicles
+            .par_iter_mut()
+            .map(|v| {
+                let mut made = Vec::new();
+                if v.should_despawn {
+                    return made;
+                }
+                advance_and_extend(net, policy, v, decel, &mut made);
+                if v.should_despawn && v.despawn_reason.is_none() {
+                    v.despawn_reason = Some(DespawnReason::DeadEnd);
+                }
+                if v.forced_through.is_some()
+                    && !net.lane(v.path[0]).intersection
+                    && v.prev_lane.is_some_and(|p| net.lane(p).intersection)
+                {
+                    v.forced_through = None;
+                }
+                made
+            })
+            .collect();
+        for (v, made) in self.vehicles.iter().zip(&decisions) {
+            for choice in made {
                 self.branch_stats.record(choice);
                 self.events.push(SimEvent::BranchDecision {
                     id: v.id,
@@ -130,6 +138,9 @@ impl World {
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
     /// the area that cleared is still known), with the seed's log lines.
     fn zebra_events(&mut self, perceptions: &[Perception]) {
+        if self.net.crosswalks.is_empty() {
+            return;
+        }
         for (v, p) in self.vehicles.iter().zip(perceptions) {
             match (v.zebra.is_blocked, p.zebra.is_blocked) {
                 (false, true) => {
