@@ -164,6 +164,12 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
         lanes[i].junction = Some(j);
     }
     for lane in lanes.iter_mut() {
+        lane.conflict_span = lane
+            .conflicts
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
+                (lo.min(c.a0), hi.max(c.a1))
+            });
         lane.conflicts
             .sort_by(|x, y| x.a0.total_cmp(&y.a0).then(x.other.cmp(&y.other)));
     }

@@ -13,31 +13,39 @@ use crate::geometry::{Polyline, box_corners};
 
 pub type LaneId = u32;
 
+/// A lane at run time. `repr(C)` keeps the fields every tick reads in the first
+/// cache line; names and geometry follow.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Lane {
+    length: f64,
+    /// Where a signalised lane stops its traffic (stop line, else the lane end).
+    light_stop: f64,
+    /// Smallest start and largest end of the lane's conflict zones (empty: +inf, -inf).
+    pub conflict_span: (f64, f64),
+    pub light: Option<u32>,
+    /// Junction this intersection lane belongs to.
+    pub junction: Option<u32>,
+    pub intersection: bool,
+    pub turn: TurnDirection,
+    /// Where other lanes of the junction come close enough for two vehicles to touch.
+    pub conflicts: Vec<Conflict>,
+    pub next: Vec<LaneId>,
     pub name: String,
     pub line: Polyline,
     pub width: f64,
     pub speed_limit: f64,
-    pub next: Vec<LaneId>,
     pub prev: Vec<LaneId>,
-    pub intersection: bool,
-    pub turn: TurnDirection,
     /// Arc length of the stop line along this lane.
     pub stop_s: Option<f64>,
     /// Centre of the stop line, if the lane has one.
     pub stop_center: Option<DVec2>,
-    pub light: Option<usize>,
     pub right_of_way: Vec<LaneId>,
-    /// Junction this intersection lane belongs to.
-    pub junction: Option<u32>,
-    /// Where other lanes of the junction come close enough for two vehicles to touch.
-    pub conflicts: Vec<Conflict>,
 }
 
 impl Lane {
     pub fn length(&self) -> f64 {
-        self.line.length()
+        self.length
     }
 
     /// The reference's `stopPoint(i)`: the stop line's centre, else waypoint i.
@@ -48,7 +56,7 @@ impl Lane {
 
     /// Stop position of a signalised lane: its stop line, else its end.
     pub fn light_stop_s(&self) -> f64 {
-        self.stop_s.unwrap_or(self.length())
+        self.light_stop
     }
 }
 
@@ -142,9 +150,13 @@ impl LaneNetwork {
                 let stop_center = def
                     .stop_line
                     .map(|[a, b]| DVec2::new(a.0[0] + b.0[0], a.0[1] + b.0[1]) * 0.5);
+                let stop_s = stop_center.map(|c| line.project(c));
                 Lane {
+                    length: line.length(),
+                    light_stop: stop_s.unwrap_or(line.length()),
+                    conflict_span: (f64::INFINITY, f64::NEG_INFINITY),
                     name: def.name.clone(),
-                    stop_s: stop_center.map(|c| line.project(c)),
+                    stop_s,
                     stop_center,
                     line,
                     width: def.width,
@@ -153,7 +165,7 @@ impl LaneNetwork {
                     prev: Vec::new(),
                     intersection: def.intersection,
                     turn: def.turn_direction,
-                    light: def.traffic_light.as_deref().map(|g| group_index[g]),
+                    light: def.traffic_light.as_deref().map(|g| group_index[g] as u32),
                     right_of_way: def.right_of_way.iter().map(id).collect(),
                     junction: None,
                     conflicts: Vec::new(),

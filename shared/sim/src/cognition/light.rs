@@ -27,7 +27,7 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
         return LightView {
             lane: Some(lane),
             distance,
-            color: snap.lights.state(group).color,
+            color: snap.lights.state(group as usize).color,
         };
     }
     LightView {

@@ -65,8 +65,14 @@ fn conflicting_bodies(
     best: f64,
 ) -> f64 {
     let v = &snap.vehicles[i];
+    let l = snap.net.lane(lane);
+    let (first, last) = l.conflict_span;
+    if offset + last <= 0.0 || offset + first >= range.min(best) {
+        // No zone of this lane is both ahead and nearer than what we already have.
+        return best;
+    }
     let mut nearest = best;
-    for c in &snap.net.lane(lane).conflicts {
+    for c in &l.conflicts {
         let zone_start = offset + c.a0;
         let zone_end = offset + c.a1;
         if zone_end <= 0.0
