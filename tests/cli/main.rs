@@ -231,14 +231,9 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
     let dir = tempfile::tempdir().unwrap();
     let map = repo_file("configs/maps/four_way.map.json");
     let cfg = dir.path().join("spawn.json");
-    std::fs::write(
-        &cfg,
-        r#"{"spawnRates": [{"lane": "j0_0_in_n0", "spawnsPerMinute": -3}],
-            "branchWeights": [{"fromLane": "J0_0_in_S0", "next": [{"lane": "Ghost", "weight": 1}]}]}"#,
-    )
-    .unwrap();
-    expect_usage_error(
-        &[
+    let check = |text: &str, needles: &[&str]| {
+        std::fs::write(&cfg, text).unwrap();
+        let args = [
             "sim",
             "--map",
             map.to_str().unwrap(),
@@ -246,7 +241,12 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
             "1",
             "--spawn-config",
             cfg.to_str().unwrap(),
-        ],
+        ];
+        expect_usage_error(&args, needles);
+    };
+    check(
+        r#"{"spawnRates": [{"lane": "j0_0_in_n0", "spawnsPerMinute": -3}],
+            "branchWeights": [{"fromLane": "J0_0_in_S0", "next": [{"lane": "Ghost", "weight": 1}]}]}"#,
         &[
             "lane 'j0_0_in_n0'",
             "spawnsPerMinute",
@@ -254,21 +254,8 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
             "unknown lane 'Ghost'",
         ],
     );
-    std::fs::write(
-        &cfg,
+    check(
         r#"{"spawnRates": [{"lane": "J0_0_in_N0", "spawnsPerMinute": "six"}]}"#,
-    )
-    .unwrap();
-    expect_usage_error(
-        &[
-            "sim",
-            "--map",
-            map.to_str().unwrap(),
-            "--duration",
-            "1",
-            "--spawn-config",
-            cfg.to_str().unwrap(),
-        ],
         &["lane 'J0_0_in_N0'", "spawnsPerMinute"],
     );
 }

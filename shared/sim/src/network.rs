@@ -182,16 +182,7 @@ impl LaneNetwork {
         let junction_count = find_conflicts_and_junctions(&mut lanes);
 
         let mut kinds: Vec<VehicleKind> = Vec::new();
-        let mut kind_index = |name: &str| -> usize {
-            let kind = builtin_kind(name).expect("validated");
-            match kinds.iter().position(|k| k.name == kind.name) {
-                Some(i) => i,
-                None => {
-                    kinds.push(kind);
-                    kinds.len() - 1
-                }
-            }
-        };
+        let mut kind_index = |name: &str| intern_kind(&mut kinds, name).expect("validated");
         let simulators = map
             .traffic_simulators
             .iter()
@@ -320,13 +311,18 @@ impl LaneNetwork {
 
     /// Kind index for a vehicle kind name, adding a built-in kind if needed.
     pub fn kind_index(&mut self, name: &str) -> Option<usize> {
-        let kind = builtin_kind(name)?;
-        Some(match self.kinds.iter().position(|k| k.name == kind.name) {
-            Some(i) => i,
-            None => {
-                self.kinds.push(kind);
-                self.kinds.len() - 1
-            }
-        })
+        intern_kind(&mut self.kinds, name)
     }
+}
+
+/// Index of the built-in kind `name` in `kinds`, appending it on first use.
+fn intern_kind(kinds: &mut Vec<VehicleKind>, name: &str) -> Option<usize> {
+    let kind = builtin_kind(name)?;
+    Some(match kinds.iter().position(|k| k.name == kind.name) {
+        Some(i) => i,
+        None => {
+            kinds.push(kind);
+            kinds.len() - 1
+        }
+    })
 }
