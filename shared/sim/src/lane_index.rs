@@ -1,7 +1,8 @@
 //! Per-lane ordering of vehicles, rebuilt each tick: the leader, conflict and
 //! spawn-clearance look-ups read it instead of scanning every vehicle.
 
-use crate::network::LaneId;
+use crate::network::{LaneId, LaneNetwork};
+use crate::per_lane::PerLane;
 use crate::vehicle::Vehicle;
 
 /// One vehicle's body on one lane.
@@ -14,82 +15,99 @@ pub struct Occupant {
     pub vehicle: u32,
 }
 
-/// Vehicles of each lane sorted by rear position.
-#[derive(Clone, Debug, Default)]
+/// A vehicle body standing in a conflict zone of a lane that is not its own.
+#[derive(Clone, Copy, Debug)]
+pub struct BlockedZone {
+    /// The zone on the blocked lane, arc lengths.
+    pub start: f64,
+    pub end: f64,
+    /// Merge or diverge: where the body's rear lies along the blocked lane.
+    /// Crossings block from `start`.
+    pub parallel_rear: Option<f64>,
+    /// The lane the body is on.
+    pub source: LaneId,
+    pub vehicle: u32,
+}
+
+/// Vehicles of each lane sorted by rear position, and the conflict zones each
+/// lane has blocked by bodies on other lanes.
+#[derive(Clone, Debug)]
 pub struct LaneIndex {
-    starts: Vec<u32>,
-    entries: Vec<Occupant>,
+    occupants: PerLane<Occupant>,
+    blocked: PerLane<BlockedZone>,
 }
 
 impl LaneIndex {
-    pub fn build(
-        lane_count: usize,
-        vehicles: &[Vehicle],
-        lane_length: impl Fn(LaneId) -> f64,
-    ) -> Self {
-        let mut counts = vec![0u32; lane_count + 1];
-        for v in vehicles {
-            counts[v.path[0] as usize] += 1;
-            if v.rear_s() < 0.0
-                && let Some(p) = v.prev_lane
-            {
-                counts[p as usize] += 1;
-            }
+    pub fn empty(lane_count: usize) -> Self {
+        LaneIndex {
+            occupants: PerLane::build(lane_count, &[]),
+            blocked: PerLane::build(lane_count, &[]),
         }
-        let mut starts = vec![0u32; lane_count + 1];
-        for i in 0..lane_count {
-            starts[i + 1] = starts[i] + counts[i];
-        }
-        let mut fill = starts.clone();
-        let mut entries = vec![
-            Occupant {
-                rear: 0.0,
-                front: 0.0,
-                vehicle: 0
-            };
-            starts[lane_count] as usize
-        ];
-        let mut put = |lane: LaneId, occ: Occupant| {
-            let slot = &mut fill[lane as usize];
-            entries[*slot as usize] = occ;
-            *slot += 1;
-        };
+    }
+
+    pub fn build(net: &LaneNetwork, vehicles: &[Vehicle]) -> Self {
+        let mut items = Vec::with_capacity(vehicles.len() + vehicles.len() / 4);
         for (i, v) in vehicles.iter().enumerate() {
-            put(
+            items.push((
                 v.path[0],
                 Occupant {
                     rear: v.rear_s(),
                     front: v.s,
                     vehicle: i as u32,
                 },
-            );
+            ));
             if v.rear_s() < 0.0
                 && let Some(p) = v.prev_lane
             {
-                let len = lane_length(p);
-                put(
+                let len = net.lane(p).length();
+                items.push((
                     p,
                     Occupant {
                         rear: len + v.rear_s(),
                         front: len + v.s,
                         vehicle: i as u32,
                     },
-                );
+                ));
             }
         }
-        for lane in 0..lane_count {
-            let slice = &mut entries[starts[lane] as usize..starts[lane + 1] as usize];
+        let mut blocked = Vec::new();
+        for &(lane, occ) in &items {
+            for c in &net.lane(lane).conflicts {
+                if occ.front >= c.a0 && occ.rear <= c.a1 {
+                    blocked.push((
+                        c.other,
+                        BlockedZone {
+                            start: c.b0,
+                            end: c.b1,
+                            parallel_rear: c.parallel.then(|| c.b0 + (occ.rear - c.a0).max(0.0)),
+                            source: lane,
+                            vehicle: occ.vehicle,
+                        },
+                    ));
+                }
+            }
+        }
+        let mut occupants = PerLane::build(net.lanes.len(), &items);
+        for lane in 0..net.lanes.len() as LaneId {
+            let slice = occupants.on_lane_mut(lane);
             if slice.len() > 1 {
                 slice.sort_unstable_by(|a, b| {
                     a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle))
                 });
             }
         }
-        LaneIndex { starts, entries }
+        LaneIndex {
+            occupants,
+            blocked: PerLane::build(net.lanes.len(), &blocked),
+        }
     }
 
     pub fn on_lane(&self, lane: LaneId) -> &[Occupant] {
-        let (a, b) = (self.starts[lane as usize], self.starts[lane as usize + 1]);
-        &self.entries[a as usize..b as usize]
+        self.occupants.on_lane(lane)
+    }
+
+    /// Conflict zones of `lane` with a body of another lane in them.
+    pub fn blocked_zones(&self, lane: LaneId) -> &[BlockedZone] {
+        self.blocked.on_lane(lane)
     }
 }

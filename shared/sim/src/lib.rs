@@ -21,6 +21,7 @@ pub mod geometry;
 pub mod lane_index;
 pub mod lights;
 pub mod network;
+pub mod per_lane;
 pub mod populate;
 pub mod rng;
 pub mod spawn;

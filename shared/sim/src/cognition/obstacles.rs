@@ -65,40 +65,26 @@ fn conflicting_bodies(
     best: f64,
 ) -> f64 {
     let v = &snap.vehicles[i];
-    let l = snap.net.lane(lane);
-    let (first, last) = l.conflict_span;
-    if offset + last <= 0.0 || offset + first >= range.min(best) {
-        // No zone of this lane is both ahead and nearer than what we already have.
-        return best;
-    }
     let mut nearest = best;
-    for c in &l.conflicts {
-        let zone_start = offset + c.a0;
-        let zone_end = offset + c.a1;
-        if zone_end <= 0.0
+    for z in snap.index.blocked_zones(lane) {
+        let zone_start = offset + z.start;
+        if offset + z.end <= 0.0
             || zone_start > range
             || zone_start >= nearest
-            || v.path.contains(&c.other)
+            || z.vehicle as usize == i
+            || v.path.contains(&z.source)
         {
             continue;
         }
-        if !c.parallel && zone_start <= 0.0 {
+        let d = match z.parallel_rear {
+            // Merge or diverge: where the other's rear lies along our lane.
+            Some(rear) => offset + rear,
             // Already inside a crossing: committed; the crossing vehicle waits for us.
-            continue;
-        }
-        for occ in snap.index.on_lane(c.other) {
-            if occ.vehicle as usize == i || occ.front < c.b0 || occ.rear > c.b1 {
-                continue;
-            }
-            let d = if c.parallel {
-                // Merge or diverge: where the other's rear lies along our lane.
-                offset + c.a0 + (occ.rear - c.b0).max(0.0)
-            } else {
-                zone_start
-            };
-            if d > 0.0 && d < nearest {
-                nearest = d;
-            }
+            None if zone_start <= 0.0 => continue,
+            None => zone_start,
+        };
+        if d > 0.0 && d < nearest {
+            nearest = d;
         }
     }
     nearest

@@ -95,7 +95,7 @@ impl World {
         let occupancy = Occupancy::new(net.crosswalks.len());
         let simulators = spawn::from_specs(&net.simulators, config.seed, 0);
         let priorities = vec![0; simulators.len()];
-        let index = LaneIndex::build(lanes, &[], |_| 0.0);
+        let index = LaneIndex::empty(lanes);
         World {
             net,
             config,
@@ -288,6 +288,6 @@ impl World {
         self.priorities = vec![0; self.simulators.len()];
         self.last_spawn.fill(f64::NEG_INFINITY);
         self.config.max_vehicles = max_vehicles;
-        self.index = LaneIndex::build(self.net.lanes.len(), &[], |_| 0.0);
+        self.index = LaneIndex::empty(self.net.lanes.len());
     }
 }

@@ -45,9 +45,7 @@ impl World {
         self.lights.update(self.time);
         self.spawn_phase();
         self.follow_lanes();
-        self.index = LaneIndex::build(self.net.lanes.len(), &self.vehicles, |l| {
-            self.net.lane(l).length()
-        });
+        self.index = LaneIndex::build(&self.net, &self.vehicles);
 
         let mut perceptions = self.cognition();
         deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
