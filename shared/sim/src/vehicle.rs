@@ -48,6 +48,20 @@ pub struct RouteProgress {
     pub index: usize,
 }
 
+/// The first junction lane of a vehicle's path, kept up to date as lanes are
+/// appended and dropped so that right of way need not walk the path each tick.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstJunctionLane {
+    /// Index in `path`.
+    pub k: usize,
+    pub lane: LaneId,
+    pub junction: Option<u32>,
+    /// Its first point: where it enters the junction.
+    pub entry: DVec2,
+    /// Summed length of the path lanes before it.
+    pub start: f64,
+}
+
 /// Trip accounting for the trip CSV.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TripStats {
@@ -74,6 +88,7 @@ pub struct Vehicle {
     pub prev_lane: Option<LaneId>,
     /// Summed length of the lanes in `path`.
     pub path_length: f64,
+    pub first_junction_lane: Option<FirstJunctionLane>,
     /// Arc length of the front bumper along path[0].
     pub s: f64,
     pub speed: f64,

@@ -4,7 +4,7 @@ use glam::DVec2;
 
 use crate::branching::{BranchChoice, BranchPolicy};
 use crate::network::{LaneId, LaneNetwork};
-use crate::vehicle::Vehicle;
+use crate::vehicle::{FirstJunctionLane, Vehicle};
 
 /// Lanes of the vehicle's path with the along-path distance from its front bumper
 /// to each lane's start (negative for the lane it is on).
@@ -26,8 +26,52 @@ pub fn known_distance_ahead(v: &Vehicle) -> f64 {
 }
 
 fn push_lane(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId) {
+    let l = net.lane(lane);
+    if v.first_junction_lane.is_none() && l.intersection {
+        v.first_junction_lane = Some(FirstJunctionLane {
+            k: v.path.len(),
+            lane,
+            junction: l.junction,
+            entry: l.line.point(0),
+            start: v.path_length,
+        });
+    }
     v.path.push(lane);
-    v.path_length += net.lane(lane).length();
+    v.path_length += l.length();
+}
+
+/// Drops the current lane (the front has left it).
+fn pop_lane(net: &LaneNetwork, v: &mut Vehicle, len: f64) {
+    v.s -= len;
+    v.path_length -= len;
+    v.prev_lane = Some(v.path.remove(0));
+    v.first_junction_lane = match v.first_junction_lane {
+        Some(f) if f.k > 0 => Some(FirstJunctionLane {
+            k: f.k - 1,
+            start: f.start - len,
+            ..f
+        }),
+        _ => first_junction_lane(net, &v.path),
+    };
+}
+
+/// Scans a path for its first junction lane.
+pub fn first_junction_lane(net: &LaneNetwork, path: &[LaneId]) -> Option<FirstJunctionLane> {
+    let mut start = 0.0;
+    for (k, &lane) in path.iter().enumerate() {
+        let l = net.lane(lane);
+        if l.intersection {
+            return Some(FirstJunctionLane {
+                k,
+                lane,
+                junction: l.junction,
+                entry: l.line.point(0),
+                start,
+            });
+        }
+        start += l.length();
+    }
+    None
 }
 
 /// Point (and height) at along-path offset `ds` from the front bumper; negative
@@ -118,9 +162,7 @@ pub fn advance_and_extend(
                 }
             }
         }
-        v.s -= len;
-        v.path_length -= len;
-        v.prev_lane = Some(v.path.remove(0));
+        pop_lane(net, v, len);
     }
     let lookahead = needed_lookahead(v.speed, deceleration);
     while v.path.len() < 3 || known_distance_ahead(v) < lookahead {

@@ -12,7 +12,6 @@ use glam::DVec2;
 use trafficmesh_model::{LightColor, YieldPhase};
 
 use super::Snapshot;
-use super::path::lanes_ahead;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
@@ -41,32 +40,27 @@ pub struct RowInfo {
     pub waiting_at_red: bool,
     /// First point of the first junction lane (the approach it enters from).
     pub entry: glam::DVec2,
+    pub junction: Option<u32>,
 }
 
 impl RowInfo {
-    pub fn of(net: &LaneNetwork, v: &Vehicle) -> Self {
-        let first_int = lanes_ahead(net, v).find(|(_, lane, _)| net.lane(*lane).intersection);
-        let on_intersection = net.lane(v.path[0]).intersection;
-        let Some((k, lane, offset)) = first_int else {
-            return RowInfo {
-                on_intersection,
-                ..RowInfo::default()
-            };
+    pub fn of(v: &Vehicle) -> Self {
+        let Some(first) = v.first_junction_lane else {
+            return RowInfo::default();
         };
+        let on_intersection = first.k == 0;
+        let offset = first.start - v.s;
         let window = MIN_DISTANCE_TO_INTERSECTION.max(v.speed * APPROACH_TIME);
         let obstructed = offset > v.distance_to_front;
         RowInfo {
-            first_int: Some((k, lane)),
+            first_int: Some((first.k, first.lane)),
             distance_to_intersection: offset,
             considered: offset <= window && !obstructed,
             on_intersection,
             waiting_at_red: !on_intersection && v.passability == LightColor::Red,
-            entry: net.lane(lane).line.point(0),
+            entry: first.entry,
+            junction: first.junction,
         }
-    }
-
-    fn junction(&self, net: &LaneNetwork) -> Option<u32> {
-        self.first_int.and_then(|(_, lane)| net.lane(lane).junction)
     }
 }
 
@@ -81,7 +75,7 @@ impl JunctionBuckets {
         let mut buckets = vec![Vec::new(); net.junction_count as usize];
         for (i, info) in infos.iter().enumerate() {
             if info.considered
-                && let Some(j) = info.junction(net)
+                && let Some(j) = info.junction
             {
                 buckets[j as usize].push(i as u32);
             }
@@ -116,7 +110,7 @@ type Hit = Option<(Option<VehicleId>, DVec2)>;
 pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = snap.row[i];
-    let candidates = snap.junctions.of(info.junction(snap.net));
+    let candidates = snap.junctions.of(info.junction);
     let ctx = Ctx {
         snap,
         i,

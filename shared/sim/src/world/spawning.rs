@@ -187,6 +187,7 @@ impl World {
             path: vec![lane],
             prev_lane: None,
             path_length: self.net.lane(lane).length(),
+            first_junction_lane: None,
             s,
             speed,
             acceleration: 0.0,
@@ -216,6 +217,7 @@ impl World {
                 ..TripStats::default()
             },
         };
+        v.first_junction_lane = crate::cognition::path::first_junction_lane(&self.net, &v.path);
         let (p, _) = point_on_path(&self.net, &v, 0.0);
         v.front = p;
         update_pose(&self.net, &mut v);

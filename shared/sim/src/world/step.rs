@@ -110,11 +110,7 @@ impl World {
     /// Parallel perception of every vehicle from the same snapshot.
     fn cognition(&self) -> Vec<Perception> {
         let net = &self.net;
-        let row: Vec<RowInfo> = self
-            .vehicles
-            .par_iter()
-            .map(|v| RowInfo::of(net, v))
-            .collect();
+        let row: Vec<RowInfo> = self.vehicles.par_iter().map(RowInfo::of).collect();
         let junctions = JunctionBuckets::build(net, &row);
         let snap = Snapshot {
             net,
