@@ -20,14 +20,15 @@ pub struct Vertex {
 
 /// A polyline with arc lengths, headings and turning precomputed.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Polyline {
-    pub vertices: Vec<Vertex>,
-    length: f64,
     /// Inline copies for the common single-segment lane, so that per-tick code
     /// on a straight lane never touches the vertex array.
     start: Vertex,
     end: Vertex,
+    length: f64,
     straight: bool,
+    pub vertices: Vec<Vertex>,
 }
 
 impl Polyline {

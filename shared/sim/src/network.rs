@@ -28,11 +28,11 @@ pub struct Lane {
     pub junction: Option<u32>,
     pub intersection: bool,
     pub turn: TurnDirection,
+    pub line: Polyline,
     /// Where other lanes of the junction come close enough for two vehicles to touch.
     pub conflicts: Vec<Conflict>,
     pub next: Vec<LaneId>,
     pub name: String,
-    pub line: Polyline,
     pub width: f64,
     pub speed_limit: f64,
     pub prev: Vec<LaneId>,

@@ -19,19 +19,14 @@ impl<T: Copy> PerLane<T> {
             starts[i + 1] += starts[i];
         }
         let mut fill = starts.clone();
-        let mut slots: Vec<Option<T>> = vec![None; items.len()];
+        // Every slot is overwritten below; the copies only give the vector its length.
+        let mut out: Vec<T> = items.iter().map(|(_, item)| *item).collect();
         for (lane, item) in items {
             let slot = &mut fill[*lane as usize];
-            slots[*slot as usize] = Some(*item);
+            out[*slot as usize] = *item;
             *slot += 1;
         }
-        PerLane {
-            starts,
-            items: slots
-                .into_iter()
-                .map(|s| s.expect("every slot is filled"))
-                .collect(),
-        }
+        PerLane { starts, items: out }
     }
 
     pub fn on_lane(&self, lane: LaneId) -> &[T] {

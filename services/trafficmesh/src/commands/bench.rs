@@ -26,9 +26,13 @@ pub struct TickArgs {
     /// Vehicles placed before measuring.
     #[arg(long, default_value_t = 10_000)]
     vehicles: usize,
-    /// Ticks to measure (after 50 warm-up ticks).
+    /// Ticks to measure.
     #[arg(long, default_value_t = 500)]
     ticks: u64,
+    /// Simulated seconds to run before measuring, so that queues and junction
+    /// interactions reach a steady state (the first seconds are cheaper).
+    #[arg(long, default_value_t = 60.0)]
+    warmup: f64,
     #[arg(long, default_value_t = 0)]
     threads: usize,
     #[arg(long)]
@@ -40,6 +44,7 @@ struct TickReport {
     grid: usize,
     vehicles: usize,
     threads: usize,
+    warmup_seconds: f64,
     ticks: u64,
     vehicle_steps: u64,
     vehicle_steps_per_sec: f64,
@@ -68,6 +73,12 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");
     }
+    if !(a.warmup.is_finite() && a.warmup >= 0.0) {
+        bail!(
+            "--warmup must be a non-negative number of seconds, got {}",
+            a.warmup
+        );
+    }
     let net = LaneNetwork::build(&grid_map(&GridOptions {
         size: a.size,
         ..GridOptions::default()
@@ -87,7 +98,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     let mut durations = Vec::with_capacity(a.ticks as usize);
     let mut vehicle_steps = 0u64;
     pool.install(|| {
-        for _ in 0..50 {
+        let warmup_ticks = (a.warmup / world.config().dt).round() as u64;
+        for _ in 0..warmup_ticks {
             world.step();
             world.drain_events().for_each(drop);
         }
@@ -107,6 +119,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         grid: a.size,
         vehicles: placed,
         threads: pool.current_num_threads(),
+        warmup_seconds: a.warmup,
         ticks: a.ticks,
         vehicle_steps,
         vehicle_steps_per_sec: vehicle_steps as f64 / total,
