@@ -279,5 +279,20 @@ fn bad_numbers_on_the_command_line_are_rejected() {
         ],
         &["--dt"],
     );
-    expect_usage_error(&["gen-grid", "--size", "0"], &["--size"]);
+    expect_usage_error(
+        &["gen-grid", "--size", "0"],
+        &["--size must be between 1 and 200"],
+    );
+    expect_usage_error(
+        &[
+            "sim",
+            "--map",
+            map.to_str().unwrap(),
+            "--duration",
+            "10",
+            "--fixed-speed-limit",
+            "-1",
+        ],
+        &["fixedSpeedLimit must be a positive number"],
+    );
 }

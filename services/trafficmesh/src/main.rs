@@ -12,7 +12,12 @@ use clap::{Parser, Subcommand};
 #[command(
     name = "trafficmesh",
     version,
-    about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies"
+    about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies",
+    after_help = "Examples:
+  trafficmesh sim --map configs/maps/four_way.map.json --duration 600 --out out
+  trafficmesh gen-grid --size 5 --out grid5.map.json
+  trafficmesh sim --map grid5.map.json --duration 1800 --max-vehicles 250 --seed 3 --json
+  trafficmesh bench tick --size 40 --vehicles 10000"
 )]
 struct Cli {
     #[command(subcommand)]

@@ -7,6 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
+use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::{SimEvent, TrajectoryHash, TripRecord, World, WorldConfig};
 
 use super::{load_network, thread_pool};
@@ -18,7 +19,7 @@ pub struct SimArgs {
     #[arg(long)]
     map: PathBuf,
     /// Simulated seconds to run.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     duration: f64,
     /// Random seed: same map, config and seed give the same trajectories.
     #[arg(long, default_value_t = 0)]
@@ -26,21 +27,34 @@ pub struct SimArgs {
     /// Spawn rates and branch weights (the seed's traffic_spawn.json format).
     #[arg(long)]
     spawn_config: Option<PathBuf>,
-    /// maxVehicleCount.
+    /// Maximum simultaneous NPC vehicles (the seed's maxVehicleCount).
     #[arg(long, default_value_t = 40)]
     max_vehicles: usize,
     /// Worker threads (0 = one per core). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Tick length, seconds.
-    #[arg(long, default_value_t = 0.02)]
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     dt: f64,
+    /// Where NORMAL-mode target speeds come from: one fixed speed, or each lane's limit.
+    #[arg(long, value_enum, default_value_t = SpeedSource::Fixed)]
+    speed_limit_source: SpeedSource,
+    /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
+    #[arg(long, default_value_t = 13.89, allow_negative_numbers = true)]
+    fixed_speed_limit: f64,
     /// Directory for trips.csv, traffic_branch_decisions.csv and traffic_spawn.json.
     #[arg(long)]
     out: Option<PathBuf>,
     /// Print one JSON object with the run's figures on stdout.
     #[arg(long)]
     json: bool,
+}
+
+/// The seed's SpeedLimitSource.
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum SpeedSource {
+    Fixed,
+    Lanelet,
 }
 
 #[derive(Serialize)]
@@ -72,16 +86,24 @@ pub fn run(a: SimArgs) -> Result<()> {
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
-    let net = load_network(&a.map)?;
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            seed: a.seed,
-            max_vehicles: a.max_vehicles,
-            dt: a.dt,
-            ..WorldConfig::default()
+    let vehicle = NpcVehicleConfig {
+        speed_limit_source: match a.speed_limit_source {
+            SpeedSource::Fixed => SpeedLimitSource::FixedSpeedLimit,
+            SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
         },
-    );
+        fixed_speed_limit: a.fixed_speed_limit,
+        ..NpcVehicleConfig::default()
+    };
+    vehicle.validate().map_err(anyhow::Error::msg)?;
+    let net = load_network(&a.map)?;
+    let config = WorldConfig {
+        seed: a.seed,
+        max_vehicles: a.max_vehicles,
+        dt: a.dt,
+        vehicle,
+        ..WorldConfig::default()
+    };
+    let mut world = World::new(net, config);
     if let Some(path) = &a.spawn_config {
         let config = trafficmesh_maps::load_spawn_config(path)?;
         world
