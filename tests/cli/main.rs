@@ -265,7 +265,7 @@ fn bad_numbers_on_the_command_line_are_rejected() {
     let map = repo_file("configs/maps/four_way.map.json");
     expect_usage_error(
         &["sim", "--map", map.to_str().unwrap(), "--duration", "-5"],
-        &["--duration"],
+        &["--duration must be a positive number"],
     );
     expect_usage_error(
         &[
@@ -277,7 +277,7 @@ fn bad_numbers_on_the_command_line_are_rejected() {
             "--dt",
             "0",
         ],
-        &["--dt"],
+        &["--dt must be in (0, 1]"],
     );
     expect_usage_error(
         &["gen-grid", "--size", "0"],
