@@ -60,6 +60,9 @@ pub fn whitelisted(area: &Crosswalk, root_name: &str) -> bool {
 #[derive(Clone, Debug, Default)]
 pub struct Occupancy {
     roots: Vec<BTreeSet<String>>,
+    /// Areas with at least one occupant, ascending: the per-vehicle query reads
+    /// only these, so its cost does not grow with the number of crosswalks.
+    occupied: Vec<usize>,
 }
 
 /// What an enter or exit did, for the debug log lines.
@@ -75,6 +78,7 @@ impl Occupancy {
     pub fn new(areas: usize) -> Self {
         Occupancy {
             roots: vec![BTreeSet::new(); areas],
+            occupied: Vec::new(),
         }
     }
 
@@ -90,6 +94,7 @@ impl Occupancy {
             return OccupancyChange::Ignored;
         }
         if self.roots[area].insert(root.to_string()) {
+            self.refresh(area);
             OccupancyChange::Entered
         } else {
             OccupancyChange::Ignored
@@ -99,6 +104,7 @@ impl Occupancy {
     /// OnTriggerExit.
     pub fn exit(&mut self, area: usize, root: &str) -> OccupancyChange {
         if self.roots[area].remove(root) {
+            self.refresh(area);
             OccupancyChange::Exited
         } else {
             OccupancyChange::Ignored
@@ -113,8 +119,19 @@ impl Occupancy {
         self.roots[area].iter().map(String::as_str)
     }
 
-    pub fn any_occupied(&self) -> bool {
-        self.roots.iter().any(|r| !r.is_empty())
+    pub fn occupied_areas(&self) -> &[usize] {
+        &self.occupied
+    }
+
+    fn refresh(&mut self, area: usize) {
+        let listed = self.occupied.binary_search(&area);
+        match (self.roots[area].is_empty(), listed) {
+            (false, Err(at)) => self.occupied.insert(at, area),
+            (true, Ok(at)) => {
+                self.occupied.remove(at);
+            }
+            _ => {}
+        }
     }
 }
 
@@ -129,10 +146,8 @@ pub fn try_get_blocked_stop(
 ) -> Option<(f64, usize)> {
     let forward = forward.normalize_or_zero();
     let mut best: Option<(f64, usize)> = None;
-    for (i, area) in areas.iter().enumerate() {
-        if !occupancy.is_occupied(i) {
-            continue;
-        }
+    for &i in occupancy.occupied_areas() {
+        let area = &areas[i];
         for stop in &area.stops {
             let to_stop = stop.position - position;
             let dist = to_stop.length();

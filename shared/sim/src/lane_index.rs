@@ -1,8 +1,8 @@
 //! Per-lane ordering of vehicles, rebuilt each tick: the leader, conflict and
 //! spawn-clearance look-ups read it instead of scanning every vehicle.
 
+use crate::buckets::Buckets;
 use crate::network::{LaneId, LaneNetwork};
-use crate::per_lane::PerLane;
 use crate::vehicle::Vehicle;
 
 /// One vehicle's body on one lane.
@@ -33,15 +33,15 @@ pub struct BlockedZone {
 /// lane has blocked by bodies on other lanes.
 #[derive(Clone, Debug)]
 pub struct LaneIndex {
-    occupants: PerLane<Occupant>,
-    blocked: PerLane<BlockedZone>,
+    occupants: Buckets<Occupant>,
+    blocked: Buckets<BlockedZone>,
 }
 
 impl LaneIndex {
     pub fn empty(lane_count: usize) -> Self {
         LaneIndex {
-            occupants: PerLane::build(lane_count, &[]),
-            blocked: PerLane::build(lane_count, &[]),
+            occupants: Buckets::build(lane_count, &[]),
+            blocked: Buckets::build(lane_count, &[]),
         }
     }
 
@@ -87,9 +87,9 @@ impl LaneIndex {
                 }
             }
         }
-        let mut occupants = PerLane::build(net.lanes.len(), &items);
+        let mut occupants = Buckets::build(net.lanes.len(), &items);
         for lane in 0..net.lanes.len() as LaneId {
-            let slice = occupants.on_lane_mut(lane);
+            let slice = occupants.get_mut(lane);
             if slice.len() > 1 {
                 slice.sort_unstable_by(|a, b| {
                     a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle))
@@ -98,16 +98,16 @@ impl LaneIndex {
         }
         LaneIndex {
             occupants,
-            blocked: PerLane::build(net.lanes.len(), &blocked),
+            blocked: Buckets::build(net.lanes.len(), &blocked),
         }
     }
 
     pub fn on_lane(&self, lane: LaneId) -> &[Occupant] {
-        self.occupants.on_lane(lane)
+        self.occupants.get(lane)
     }
 
     /// Conflict zones of `lane` with a body of another lane in them.
     pub fn blocked_zones(&self, lane: LaneId) -> &[BlockedZone] {
-        self.blocked.on_lane(lane)
+        self.blocked.get(lane)
     }
 }

@@ -10,6 +10,7 @@
 //! immutable snapshot in parallel, randomness comes from per-entity seeded streams.
 
 pub mod branching;
+pub mod buckets;
 pub mod cognition;
 pub mod conflicts;
 pub mod control;
@@ -21,7 +22,6 @@ pub mod geometry;
 pub mod lane_index;
 pub mod lights;
 pub mod network;
-pub mod per_lane;
 pub mod populate;
 pub mod rng;
 pub mod spawn;

@@ -42,7 +42,10 @@ pub fn distance_to_front(snap: &Snapshot, i: usize) -> f64 {
 /// The nearest vehicle ahead on `lane` whose body is ahead of ours.
 fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> f64 {
     let v = &snap.vehicles[i];
-    for occ in snap.index.on_lane(lane) {
+    let occupants = snap.index.on_lane(lane);
+    // Sorted by rear: skip every body whose rear is behind ours.
+    let first = occupants.partition_point(|o| offset + o.rear <= -v.length);
+    for occ in &occupants[first..] {
         if occ.vehicle as usize == i {
             continue;
         }

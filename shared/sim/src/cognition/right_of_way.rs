@@ -12,6 +12,7 @@ use glam::DVec2;
 use trafficmesh_model::{LightColor, YieldPhase};
 
 use super::Snapshot;
+use crate::buckets::Buckets;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
@@ -65,26 +66,22 @@ impl RowInfo {
 }
 
 /// Considered vehicles of each junction, in vehicle order.
-#[derive(Clone, Debug, Default)]
-pub struct JunctionBuckets {
-    buckets: Vec<Vec<u32>>,
-}
+#[derive(Clone, Debug)]
+pub struct JunctionBuckets(Buckets<u32>);
 
 impl JunctionBuckets {
     pub fn build(net: &LaneNetwork, infos: &[RowInfo]) -> Self {
-        let mut buckets = vec![Vec::new(); net.junction_count as usize];
-        for (i, info) in infos.iter().enumerate() {
-            if info.considered
-                && let Some(j) = info.junction
-            {
-                buckets[j as usize].push(i as u32);
-            }
-        }
-        JunctionBuckets { buckets }
+        let members: Vec<(u32, u32)> = infos
+            .iter()
+            .enumerate()
+            .filter(|(_, info)| info.considered)
+            .filter_map(|(i, info)| Some((info.junction?, i as u32)))
+            .collect();
+        JunctionBuckets(Buckets::build(net.junction_count as usize, &members))
     }
 
     fn of(&self, junction: Option<u32>) -> &[u32] {
-        junction.map_or(&[], |j| &self.buckets[j as usize])
+        junction.map_or(&[], |j| self.0.get(j))
     }
 }
 
