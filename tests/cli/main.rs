@@ -263,36 +263,22 @@ fn malformed_spawn_config_is_rejected_naming_field_and_lane() {
 #[test]
 fn bad_numbers_on_the_command_line_are_rejected() {
     let map = repo_file("configs/maps/four_way.map.json");
-    expect_usage_error(
-        &["sim", "--map", map.to_str().unwrap(), "--duration", "-5"],
-        &["--duration must be a positive number"],
+    let sim = |extra: &[&str], needle: &str| {
+        let mut args = vec!["sim", "--map", map.to_str().unwrap()];
+        args.extend_from_slice(extra);
+        expect_usage_error(&args, &[needle]);
+    };
+    sim(
+        &["--duration", "-5"],
+        "--duration must be a positive number",
     );
-    expect_usage_error(
-        &[
-            "sim",
-            "--map",
-            map.to_str().unwrap(),
-            "--duration",
-            "10",
-            "--dt",
-            "0",
-        ],
-        &["--dt must be in (0, 1]"],
+    sim(&["--duration", "10", "--dt", "0"], "--dt must be in (0, 1]");
+    sim(
+        &["--duration", "10", "--fixed-speed-limit", "-1"],
+        "fixedSpeedLimit must be a positive number",
     );
     expect_usage_error(
         &["gen-grid", "--size", "0"],
         &["--size must be between 1 and 200"],
-    );
-    expect_usage_error(
-        &[
-            "sim",
-            "--map",
-            map.to_str().unwrap(),
-            "--duration",
-            "10",
-            "--fixed-speed-limit",
-            "-1",
-        ],
-        &["fixedSpeedLimit must be a positive number"],
     );
 }

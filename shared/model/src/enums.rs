@@ -24,14 +24,6 @@ impl SpeedMode {
             SpeedMode::AbsoluteStop => "ABSOLUTE_STOP",
         }
     }
-
-    /// True for the three modes whose target speed is zero.
-    pub fn is_stopping(self) -> bool {
-        matches!(
-            self,
-            SpeedMode::Stop | SpeedMode::SuddenStop | SpeedMode::AbsoluteStop
-        )
-    }
 }
 
 /// The intersection right-of-way phases (reference section 3.6).

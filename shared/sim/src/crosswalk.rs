@@ -115,10 +115,6 @@ impl Occupancy {
         !self.roots[area].is_empty()
     }
 
-    pub fn occupants(&self, area: usize) -> impl Iterator<Item = &str> {
-        self.roots[area].iter().map(String::as_str)
-    }
-
     pub fn occupied_areas(&self) -> &[usize] {
         &self.occupied
     }

@@ -220,17 +220,3 @@ fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
             (lo.min(v), hi.max(v))
         })
 }
-
-/// Even-odd point-in-polygon test.
-pub fn point_in_polygon(p: DVec2, poly: &[DVec2]) -> bool {
-    let mut inside = false;
-    let mut j = poly.len() - 1;
-    for i in 0..poly.len() {
-        let (a, b) = (poly[i], poly[j]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
-            inside = !inside;
-        }
-        j = i;
-    }
-    inside
-}

@@ -77,10 +77,6 @@ impl Lights {
     pub fn state(&self, group: usize) -> LightState {
         self.states[group]
     }
-
-    pub fn states(&self) -> &[LightState] {
-        &self.states
-    }
 }
 
 #[cfg(test)]

@@ -142,10 +142,6 @@ impl Vehicle {
         }
     }
 
-    pub fn current_lane(&self) -> LaneId {
-        self.path[0]
-    }
-
     /// Arc length of the rear bumper on path[0]; negative while it is still on prev_lane.
     pub fn rear_s(&self) -> f64 {
         self.s - self.length

@@ -4,24 +4,18 @@ pub mod sim;
 
 use std::path::Path;
 
-use anyhow::{Context, Result, anyhow};
+use anyhow::{Context, Result};
+use trafficmesh_maps::FileError;
 use trafficmesh_sim::LaneNetwork;
 
 /// Loads and compiles a native map, with every problem named.
 pub fn load_network(path: &Path) -> Result<LaneNetwork> {
     let map = trafficmesh_maps::load_map(path)?;
-    LaneNetwork::build(&map).map_err(|problems| {
-        anyhow!(
-            "{}: {} problem(s):\n  {}",
-            path.display(),
-            problems.len(),
-            problems
-                .iter()
-                .map(|p| p.to_string())
-                .collect::<Vec<_>>()
-                .join("\n  ")
-        )
-    })
+    let network = LaneNetwork::build(&map).map_err(|problems| FileError::Invalid {
+        path: path.to_owned(),
+        problems,
+    })?;
+    Ok(network)
 }
 
 /// A rayon pool of `threads` workers (0 = one per core).

@@ -20,7 +20,7 @@ const EXIT_MOVING_SPEED: f64 = 3.0;
 pub fn distance_to_front(snap: &Snapshot, i: usize) -> f64 {
     let v = &snap.vehicles[i];
     let net = snap.net;
-    let range = needed_lookahead(v.speed, snap.config.deceleration);
+    let range = needed_lookahead(v.speed, snap.config);
     let mut best = f64::INFINITY;
     let on_intersection = net.lane(v.path[0]).intersection;
     for (k, lane, offset) in lanes_ahead(net, v) {

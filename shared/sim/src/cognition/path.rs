@@ -2,7 +2,10 @@
 
 use glam::DVec2;
 
+use trafficmesh_model::NpcVehicleConfig;
+
 use crate::branching::{BranchChoice, BranchPolicy};
+use crate::decision::StopDistances;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{FirstJunctionLane, Vehicle};
 
@@ -134,8 +137,8 @@ pub fn extend_path(
 
 /// How far ahead the path must be known: beyond the slow-down distance nothing
 /// changes the decision, so look that far and a margin more.
-pub fn needed_lookahead(speed: f64, deceleration: f64) -> f64 {
-    (speed * speed / (2.0 * deceleration) + 4.5 + 6.0 + 10.0).max(60.0)
+pub fn needed_lookahead(speed: f64, config: &NpcVehicleConfig) -> f64 {
+    (StopDistances::at(speed, config).slow_down + 10.0).max(60.0)
 }
 
 /// Moves the vehicle onto the next lane when its front passes the end of the
@@ -145,7 +148,7 @@ pub fn advance_and_extend(
     net: &LaneNetwork,
     policy: &BranchPolicy,
     v: &mut Vehicle,
-    deceleration: f64,
+    config: &NpcVehicleConfig,
     decisions: &mut Vec<BranchChoice>,
 ) {
     loop {
@@ -164,7 +167,7 @@ pub fn advance_and_extend(
         }
         pop_lane(net, v, len);
     }
-    let lookahead = needed_lookahead(v.speed, deceleration);
+    let lookahead = needed_lookahead(v.speed, config);
     while v.path.len() < 3 || known_distance_ahead(v) < lookahead {
         match extend_path(net, policy, v) {
             Ok(choice) => decisions.extend(choice),

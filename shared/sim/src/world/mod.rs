@@ -71,6 +71,8 @@ pub struct World {
     index: LaneIndex,
     lights: Lights,
     occupancy: Occupancy,
+    /// Some vehicle was stopped by a crosswalk after the last tick's cognition.
+    zebra_blocked_last_tick: bool,
     ego: Option<Ego>,
     simulators: Vec<Box<dyn TrafficSimulator>>,
     /// Simulators added at run time (AddTrafficSimulator); kept across Restart.
@@ -105,6 +107,7 @@ impl World {
             index,
             lights,
             occupancy,
+            zebra_blocked_last_tick: false,
             ego: None,
             simulators,
             extra_simulators: 0,

@@ -4,7 +4,6 @@
 use glam::DVec2;
 
 use super::World;
-use crate::cognition::path::point_on_path;
 use crate::control::update_pose;
 use crate::decision::StopDistances;
 use crate::events::SimEvent;
@@ -79,10 +78,6 @@ impl World {
                 self.spawn_stats.not_spawnable += 1;
                 continue;
             }
-            if self.vehicles.len() >= self.config.max_vehicles {
-                self.spawn_stats.max_vehicles += 1;
-                continue;
-            }
             let kind = &self.net.kinds[proposal.kind];
             spawned_here.push((start, kind.length));
             // The whole body on the spawn lane: rear bumper at its start (AWSIM puts the
@@ -125,17 +120,14 @@ impl World {
         {
             return false;
         }
-        for c in &l.conflicts {
-            if c.a0 < front + CLEARANCE
-                && c.a1 > rear - CLEARANCE
-                && self
-                    .index
-                    .on_lane(c.other)
-                    .iter()
-                    .any(|o| o.front >= c.b0 && o.rear <= c.b1)
-            {
-                return false;
-            }
+        // Bodies of other lanes standing in this lane's conflict zones near its start.
+        if self
+            .index
+            .blocked_zones(lane)
+            .iter()
+            .any(|z| z.start < front + CLEARANCE && z.end > rear - CLEARANCE)
+        {
+            return false;
         }
         for &p in &l.prev {
             let len = self.net.lane(p).length();
@@ -218,8 +210,6 @@ impl World {
             },
         };
         v.first_junction_lane = crate::cognition::path::first_junction_lane(&self.net, &v.path);
-        let (p, _) = point_on_path(&self.net, &v, 0.0);
-        v.front = p;
         update_pose(&self.net, &mut v);
         self.events.push(SimEvent::Spawned {
             id,

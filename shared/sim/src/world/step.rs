@@ -74,7 +74,7 @@ impl World {
     /// random stream), then recorded in vehicle order.
     fn follow_lanes(&mut self) {
         let (net, policy) = (&self.net, &self.branch_policy);
-        let decel = self.config.vehicle.deceleration;
+        let motion = &self.config.vehicle;
         let decisions: Vec<Vec<BranchChoice>> = self
             .vehicles
             .par_iter_mut()
@@ -83,7 +83,7 @@ impl World {
                 if v.should_despawn {
                     return made;
                 }
-                advance_and_extend(net, policy, v, decel, &mut made);
+                advance_and_extend(net, policy, v, motion, &mut made);
                 if v.should_despawn && v.despawn_reason.is_none() {
                     v.despawn_reason = Some(DespawnReason::DeadEnd);
                 }
@@ -132,9 +132,11 @@ impl World {
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
     /// the area that cleared is still known), with the seed's log lines.
     fn zebra_events(&mut self, perceptions: &[Perception]) {
-        if self.net.crosswalks.is_empty() {
+        // A stop needs an occupied area now; a clear needs a vehicle blocked last tick.
+        if self.occupancy.occupied_areas().is_empty() && !self.zebra_blocked_last_tick {
             return;
         }
+        self.zebra_blocked_last_tick = perceptions.iter().any(|p| p.zebra.is_blocked);
         for (v, p) in self.vehicles.iter().zip(perceptions) {
             match (v.zebra.is_blocked, p.zebra.is_blocked) {
                 (false, true) => {
