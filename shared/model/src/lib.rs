@@ -10,6 +10,7 @@ pub mod enums;
 pub mod map;
 pub mod spawn_config;
 pub mod vehicle_config;
+pub mod wire;
 
 pub use catalog::{VehicleKind, builtin_kind};
 pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};

@@ -63,6 +63,10 @@ pub struct Occupancy {
     /// Areas with at least one occupant, ascending: the per-vehicle query reads
     /// only these, so its cost does not grow with the number of crosswalks.
     occupied: Vec<usize>,
+    /// Fail-safe: the occupancy source went quiet, so every area counts as
+    /// occupied until it speaks again.
+    stale: bool,
+    all: Vec<usize>,
 }
 
 /// What an enter or exit did, for the debug log lines.
@@ -79,6 +83,8 @@ impl Occupancy {
         Occupancy {
             roots: vec![BTreeSet::new(); areas],
             occupied: Vec::new(),
+            stale: false,
+            all: (0..areas).collect(),
         }
     }
 
@@ -111,12 +117,39 @@ impl Occupancy {
         }
     }
 
+    /// Replaces an area's occupants with a set already filtered elsewhere (the
+    /// crosswalks service publishes them); returns whether anything changed.
+    pub fn set_occupants(&mut self, area: usize, roots: BTreeSet<String>) -> bool {
+        if self.roots[area] == roots {
+            return false;
+        }
+        self.roots[area] = roots;
+        self.refresh(area);
+        true
+    }
+
+    pub fn set_stale(&mut self, stale: bool) {
+        self.stale = stale;
+    }
+
+    pub fn is_stale(&self) -> bool {
+        self.stale
+    }
+
     pub fn is_occupied(&self, area: usize) -> bool {
-        !self.roots[area].is_empty()
+        self.stale || !self.roots[area].is_empty()
+    }
+
+    pub fn occupants(&self, area: usize) -> &BTreeSet<String> {
+        &self.roots[area]
     }
 
     pub fn occupied_areas(&self) -> &[usize] {
-        &self.occupied
+        if self.stale {
+            &self.all
+        } else {
+            &self.occupied
+        }
     }
 
     fn refresh(&mut self, area: usize) {

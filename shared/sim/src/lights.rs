@@ -33,6 +33,31 @@ pub fn program_state(program: &LightProgram, t: f64) -> LightState {
 pub enum LightControl {
     Program(LightProgram),
     Forced(LightColor),
+    /// A colour received from the lights service, good until `valid_until`
+    /// (simulation time); after that the group counts as red (fail-safe).
+    Remote {
+        color: LightColor,
+        valid_until: f64,
+    },
+}
+
+fn evaluate(control: &LightControl, t: f64) -> LightState {
+    match control {
+        LightControl::Program(p) => program_state(p, t),
+        LightControl::Forced(color) => LightState {
+            color: *color,
+            next_change: f64::INFINITY,
+        },
+        LightControl::Remote { color, valid_until } if t <= *valid_until => LightState {
+            color: *color,
+            next_change: *valid_until,
+        },
+        // Fail-safe: a state nobody vouches for any more is red.
+        LightControl::Remote { .. } => LightState {
+            color: LightColor::Red,
+            next_change: f64::INFINITY,
+        },
+    }
 }
 
 /// The states of every light group, refreshed once per tick.
@@ -59,19 +84,26 @@ impl Lights {
 
     pub fn update(&mut self, t: f64) {
         for (state, control) in self.states.iter_mut().zip(&self.controls) {
-            *state = match control {
-                LightControl::Program(p) => program_state(p, t),
-                LightControl::Forced(color) => LightState {
-                    color: *color,
-                    next_change: f64::INFINITY,
-                },
-            };
+            *state = evaluate(control, t);
         }
     }
 
+    /// Changes one group's control and refreshes its state at `t`.
     pub fn set_control(&mut self, group: usize, control: LightControl, t: f64) {
         self.controls[group] = control;
-        self.update(t);
+        self.states[group] = evaluate(&control, t);
+    }
+
+    pub fn control(&self, group: usize) -> LightControl {
+        self.controls[group]
+    }
+
+    pub fn len(&self) -> usize {
+        self.controls.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.controls.is_empty()
     }
 
     pub fn state(&self, group: usize) -> LightState {

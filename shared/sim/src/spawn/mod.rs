@@ -5,11 +5,13 @@
 //! priority, IsSpawnable, max vehicle count). A user-defined simulator implements
 //! [`TrafficSimulator`] and is added with `World::add_traffic_simulator`.
 
+mod manager;
 mod random;
 mod route;
 
 use std::sync::Arc;
 
+pub use manager::{SpawnManager, SpawnOutcome, SpawnRequest, SpawnStats};
 pub use random::RandomTrafficSimulator;
 pub use route::RouteTrafficSimulator;
 
@@ -36,6 +38,11 @@ pub trait TrafficSimulator: Send {
     fn propose(&mut self, net: &LaneNetwork, out: &mut Vec<SpawnProposal>);
     /// The proposal with this slot spawned.
     fn spawned(&mut self, slot: usize);
+    /// A fixed priority added to the seed's anti-starvation counter when
+    /// proposals compete for one spawn point (0 for the built-in simulators).
+    fn priority(&self) -> i64 {
+        0
+    }
 }
 
 /// Spawn count against `maximum_spawns` (0 = unlimited).

@@ -16,10 +16,10 @@ use crate::events::{DespawnReason, SimEvent};
 use crate::lane_index::LaneIndex;
 use crate::lights::{LightControl, Lights};
 use crate::network::LaneNetwork;
-use crate::spawn::{self, TrafficSimulator};
+use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
 use crate::vehicle::{Vehicle, VehicleId};
 
-pub use spawning::SpawnStats;
+pub use spawning::SpawnRejection;
 
 /// Run parameters, with the seed's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -74,19 +74,11 @@ pub struct World {
     /// Some vehicle was stopped by a crosswalk after the last tick's cognition.
     zebra_blocked_last_tick: bool,
     ego: Option<Ego>,
-    simulators: Vec<Box<dyn TrafficSimulator>>,
-    /// Simulators added at run time (AddTrafficSimulator); kept across Restart.
-    extra_simulators: usize,
-    priorities: Vec<i64>,
+    spawner: SpawnManager,
     spawn_config: Option<TrafficSpawnConfig>,
     branch_policy: BranchPolicy,
     branch_stats: BranchStats,
-    /// spawnsPerMinute per lane (0 = no limit) and the last accepted spawn time.
-    spawn_rates: Vec<f64>,
-    last_spawn: Vec<f64>,
-    spawn_stats: SpawnStats,
     next_id: VehicleId,
-    generation: u64,
     events: Vec<SimEvent>,
 }
 
@@ -95,8 +87,7 @@ impl World {
         let lanes = net.lanes.len();
         let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
         let occupancy = Occupancy::new(net.crosswalks.len());
-        let simulators = spawn::from_specs(&net.simulators, config.seed, 0);
-        let priorities = vec![0; simulators.len()];
+        let spawner = SpawnManager::new(&net, config.seed, true);
         let index = LaneIndex::empty(lanes);
         World {
             net,
@@ -109,17 +100,11 @@ impl World {
             occupancy,
             zebra_blocked_last_tick: false,
             ego: None,
-            simulators,
-            extra_simulators: 0,
-            priorities,
+            spawner,
             spawn_config: None,
             branch_policy: BranchPolicy::none(),
             branch_stats: BranchStats::default(),
-            spawn_rates: vec![0.0; lanes],
-            last_spawn: vec![f64::NEG_INFINITY; lanes],
-            spawn_stats: SpawnStats::default(),
             next_id: 0,
-            generation: 0,
             events: Vec::new(),
         }
     }
@@ -160,7 +145,15 @@ impl World {
         self.branch_stats.to_csv(&self.net)
     }
     pub fn spawn_stats(&self) -> &SpawnStats {
-        &self.spawn_stats
+        self.spawner.stats()
+    }
+
+    /// Drops every simulator, the map's included: vehicles then only arrive
+    /// through [`World::admit_spawn`] (the stepper's case, where the spawner
+    /// service runs the simulators).
+    pub fn without_simulators(mut self) -> Self {
+        self.spawner = SpawnManager::new(&self.net, self.config.seed, false);
+        self
     }
     /// Events since the last call.
     pub fn drain_events(&mut self) -> std::vec::Drain<'_, SimEvent> {
@@ -177,20 +170,14 @@ impl World {
 
     /// AddTrafficSimulator: joins the spawn loop and the priority system.
     pub fn add_traffic_simulator(&mut self, sim: Box<dyn TrafficSimulator>) {
-        self.simulators.push(sim);
-        self.priorities.push(0);
-        self.extra_simulators += 1;
+        self.spawner.add(sim);
     }
 
     /// Applies a spawn config (rates and branch weights), after validating it
     /// against the map. On error nothing changes.
     pub fn set_spawn_config(&mut self, config: TrafficSpawnConfig) -> Result<(), WorldError> {
         config.validate(|name| self.net.lane_id(name).is_some())?;
-        self.spawn_rates.fill(0.0);
-        for rate in &config.spawn_rates {
-            let lane = self.net.lane_id(&rate.lane).expect("validated");
-            self.spawn_rates[lane as usize] = rate.spawns_per_minute;
-        }
+        self.spawner.set_rates(&self.net, &config);
         self.branch_policy = BranchPolicy::from_config(&self.net, &config);
         self.spawn_config = Some(config);
         Ok(())
@@ -209,6 +196,46 @@ impl World {
             .ok_or_else(|| WorldError::UnknownLightGroup(group.into()))?;
         self.lights.set_control(g, control, self.time);
         Ok(())
+    }
+
+    /// Light states from the lights service: each group's colour, good until
+    /// `valid_until` (simulation time), red after that.
+    pub fn set_remote_light(
+        &mut self,
+        group: &str,
+        color: trafficmesh_model::LightColor,
+        valid_until: f64,
+    ) -> Result<(), WorldError> {
+        self.set_light(group, LightControl::Remote { color, valid_until })
+    }
+
+    /// Extends the validity of every remotely controlled light group (the
+    /// lights service's heartbeat).
+    pub fn extend_remote_lights(&mut self, valid_until: f64) {
+        for g in 0..self.lights.len() {
+            if let LightControl::Remote { color, .. } = self.lights.control(g) {
+                self.lights
+                    .set_control(g, LightControl::Remote { color, valid_until }, self.time);
+            }
+        }
+    }
+
+    /// An area's occupants as the crosswalks service published them.
+    pub fn set_crosswalk_occupants(
+        &mut self,
+        area: &str,
+        roots: std::collections::BTreeSet<String>,
+    ) -> Result<bool, WorldError> {
+        let a = self
+            .net
+            .crosswalk(area)
+            .ok_or_else(|| WorldError::UnknownCrosswalk(area.into()))?;
+        Ok(self.occupancy.set_occupants(a, roots))
+    }
+
+    /// Fail-safe for a silent crosswalks service: every area counts as blocked.
+    pub fn set_crosswalks_stale(&mut self, stale: bool) {
+        self.occupancy.set_stale(stale);
     }
 
     /// An occupant (pedestrian, cyclist, ...) enters a crosswalk area.
@@ -279,17 +306,7 @@ impl World {
                 DespawnReason::Restart,
             )));
         }
-        self.generation += 1;
-        let extra: Vec<_> = self
-            .simulators
-            .drain(..)
-            .skip(self.net.simulators.len())
-            .collect();
-        self.simulators =
-            spawn::from_specs(&self.net.simulators, self.config.seed, self.generation);
-        self.simulators.extend(extra);
-        self.priorities = vec![0; self.simulators.len()];
-        self.last_spawn.fill(f64::NEG_INFINITY);
+        self.spawner.restart(&self.net);
         self.config.max_vehicles = max_vehicles;
         self.index = LaneIndex::empty(self.net.lanes.len());
     }

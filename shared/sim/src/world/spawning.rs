@@ -10,94 +10,89 @@ use crate::events::SimEvent;
 use crate::geometry::{box_corners, boxes_overlap};
 use crate::network::LaneId;
 use crate::rng::SimRng;
-use crate::spawn::SpawnProposal;
+use crate::spawn::SpawnOutcome;
 use crate::vehicle::{Pose, RouteProgress, TripStats, Vehicle, VehicleId, ZebraState};
 
-/// Spawn attempts that did not spawn, by reason.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct SpawnStats {
-    pub spawned: u64,
-    pub too_close_to_ego: u64,
-    pub rate_limited: u64,
-    pub lost_priority: u64,
-    pub not_spawnable: u64,
-    pub max_vehicles: u64,
+/// Why the owner of the vehicles refused a spawn request.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum SpawnRejection {
+    #[error("maximum vehicle count reached")]
+    MaxVehicles,
+    #[error("spawn point not clear")]
+    NotSpawnable,
+    #[error("unknown lane {0}")]
+    UnknownLane(LaneId),
+    #[error("unknown vehicle kind {0}")]
+    UnknownKind(usize),
 }
 
 const CLEARANCE: f64 = 1.0;
 
 impl World {
     pub(super) fn spawn_phase(&mut self) {
-        let mut proposals: Vec<(usize, SpawnProposal)> = Vec::new();
-        let mut buf = Vec::new();
-        for (si, sim) in self.simulators.iter_mut().enumerate() {
-            if sim.is_enabled() {
-                buf.clear();
-                sim.propose(&self.net, &mut buf);
-                proposals.extend(buf.drain(..).map(|p| (si, p)));
-            }
+        let requests = self.spawner.plan(
+            &self.net,
+            self.time,
+            self.ego.as_ref(),
+            self.config.spawn_distance_to_ego,
+        );
+        let mut spawned_here = Vec::new();
+        for request in &requests {
+            let outcome = match self.admit(
+                request.kind,
+                request.lane,
+                request.route.clone(),
+                self.config.max_vehicles,
+                &mut spawned_here,
+            ) {
+                Ok(_) => SpawnOutcome::Spawned,
+                Err(SpawnRejection::MaxVehicles) => SpawnOutcome::MaxVehicles,
+                Err(_) => SpawnOutcome::NotSpawnable,
+            };
+            self.spawner.resolve(request, outcome, self.time);
         }
-        // Group by spawn point (the lane start), in first-insertion order.
-        let mut groups: Vec<(LaneId, Vec<usize>)> = Vec::new();
-        let mut group_of: rustc_hash::FxHashMap<LaneId, usize> = rustc_hash::FxHashMap::default();
-        for (k, (_, p)) in proposals.iter().enumerate() {
-            let g = *group_of.entry(p.lane).or_insert_with(|| {
-                groups.push((p.lane, Vec::new()));
-                groups.len() - 1
-            });
-            groups[g].1.push(k);
+    }
+
+    /// The final check of a spawn request against the vehicles (max count, then
+    /// IsSpawnable) and the spawn itself, body on the lane with the rear bumper
+    /// at its start. `spawned_here` holds this tick's earlier spawns.
+    fn admit(
+        &mut self,
+        kind: usize,
+        lane: LaneId,
+        route: Option<std::sync::Arc<[LaneId]>>,
+        max_vehicles: usize,
+        spawned_here: &mut Vec<(DVec2, f64)>,
+    ) -> Result<VehicleId, SpawnRejection> {
+        if lane as usize >= self.net.lanes.len() {
+            return Err(SpawnRejection::UnknownLane(lane));
         }
-        let mut spawned_here: Vec<(DVec2, f64)> = Vec::new();
-        for (lane, members) in groups {
-            let start = self.net.lane(lane).line.point(0);
-            if let Some(ego) = &self.ego
-                && ego.position().distance(start) < self.config.spawn_distance_to_ego
-            {
-                self.spawn_stats.too_close_to_ego += members.len() as u64;
-                continue;
-            }
-            let rate = self.spawn_rates[lane as usize];
-            if rate > 0.0 && self.time - self.last_spawn[lane as usize] < 60.0 / rate - 1e-9 {
-                self.spawn_stats.rate_limited += members.len() as u64;
-                continue;
-            }
-            // Highest priority wins; ties keep insertion order.
-            let winner = *members
-                .iter()
-                .min_by_key(|&&k| (-self.priorities[proposals[k].0], k))
-                .expect("groups are never empty");
-            self.spawn_stats.lost_priority += members.len() as u64 - 1;
-            let (si, proposal) = &proposals[winner];
-            // The seed checks the cap after the space check; when already full the
-            // outcome is the same, so skip the space check (it only moves the count).
-            if self.vehicles.len() >= self.config.max_vehicles {
-                self.spawn_stats.max_vehicles += 1;
-                continue;
-            }
-            if !self.is_spawnable(proposal.kind, lane, &spawned_here) {
-                self.spawn_stats.not_spawnable += 1;
-                continue;
-            }
-            let kind = &self.net.kinds[proposal.kind];
-            spawned_here.push((start, kind.length));
-            // The whole body on the spawn lane: rear bumper at its start (AWSIM puts the
-            // rear axle there, which leaves a long overhang in the junction behind).
-            self.register(
-                proposal.kind,
-                lane,
-                kind.length,
-                0.0,
-                proposal.route.clone(),
-            );
-            self.last_spawn[lane as usize] = self.time;
-            if members.len() > 1 {
-                for &k in &members {
-                    self.priorities[proposals[k].0] += 1;
-                }
-                self.priorities[*si] = 0;
-            }
-            self.simulators[*si].spawned(proposal.slot);
+        if kind >= self.net.kinds.len() {
+            return Err(SpawnRejection::UnknownKind(kind));
         }
+        if self.vehicles.len() >= max_vehicles {
+            return Err(SpawnRejection::MaxVehicles);
+        }
+        if !self.is_spawnable(kind, lane, spawned_here) {
+            return Err(SpawnRejection::NotSpawnable);
+        }
+        let length = self.net.kinds[kind].length;
+        spawned_here.push((self.net.lane(lane).line.point(0), length));
+        Ok(self.register(kind, lane, length, 0.0, route))
+    }
+
+    /// A spawn request from another process (the spawner service): checked and
+    /// spawned as in the world's own spawn phase. Requests of one tick go
+    /// through here in order; `spawned_here` carries them between calls.
+    pub fn admit_spawn(
+        &mut self,
+        kind: usize,
+        lane: LaneId,
+        route: Option<std::sync::Arc<[LaneId]>>,
+        max_vehicles: usize,
+        spawned_here: &mut Vec<(DVec2, f64)>,
+    ) -> Result<VehicleId, SpawnRejection> {
+        self.admit(kind, lane, route, max_vehicles, spawned_here)
     }
 
     /// IsSpawnable: the vehicle's box at the lane start is clear of every vehicle,
@@ -217,7 +212,6 @@ impl World {
             lane,
             time: self.time,
         });
-        self.spawn_stats.spawned += 1;
         self.vehicles.push(v);
         id
     }

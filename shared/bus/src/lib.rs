@@ -1,0 +1,42 @@
+//! The trafficmesh bus: key expressions, Zenoh session configuration and typed
+//! JSON helpers. Payloads are serde_json with the Zenoh encoding
+//! `application/json`; commands and answers are reliable, telemetry drops
+//! samples rather than slow its publisher.
+
+mod bus;
+mod keys;
+mod session;
+mod status;
+
+pub use bus::{Bus, JsonPublisher, Lane};
+pub use keys::{Keys, is_plain_chunk};
+pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
+pub use status::{BadPayloads, serve_status};
+
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum BusError {
+    #[error("cluster name '{0}' must be one key chunk: no '/', '*', '$', '?', '#' or spaces")]
+    ClusterName(String),
+    #[error("zenoh config {what}: {reason}")]
+    Config { what: String, reason: String },
+    #[error("zenoh: {0}")]
+    Zenoh(String),
+    #[error("{key}: no answer within {timeout_ms} ms (is the service running?)")]
+    NoAnswer { key: String, timeout_ms: u128 },
+    #[error("{key}: {message}")]
+    Remote { key: String, message: String },
+    #[error("{key}: answer is not valid JSON for {what}: {reason}")]
+    BadAnswer {
+        key: String,
+        what: &'static str,
+        reason: String,
+    },
+}
+
+impl From<zenoh::Error> for BusError {
+    fn from(e: zenoh::Error) -> Self {
+        BusError::Zenoh(e.to_string())
+    }
+}

@@ -1,0 +1,73 @@
+//! Bad-payload counters and the status every service publishes once a second
+//! on `<cluster>/status/<service>` and answers as a query.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::sync::Mutex;
+use std::time::Duration;
+
+use trafficmesh_model::wire::ServiceStatus;
+
+use crate::{Bus, Lane};
+
+#[derive(Debug, Default)]
+pub struct BadPayloads {
+    by_key: Mutex<BTreeMap<String, u64>>,
+}
+
+impl BadPayloads {
+    pub fn count(&self, key: &str) {
+        *self
+            .by_key
+            .lock()
+            .expect("counter lock")
+            .entry(key.to_string())
+            .or_insert(0) += 1;
+    }
+
+    pub fn snapshot(&self) -> (u64, BTreeMap<String, u64>) {
+        let map = self.by_key.lock().expect("counter lock").clone();
+        (map.values().sum(), map)
+    }
+}
+
+/// Publishes the service's status once a second and answers gets for it.
+/// `details` gives the simulation time and the service's own counters.
+pub fn serve_status(
+    bus: Arc<Bus>,
+    details: Arc<dyn Fn() -> (f64, serde_json::Value) + Send + Sync>,
+) {
+    tokio::spawn(async move {
+        let key = bus.keys().status(bus.service());
+        let (Ok(publisher), Ok(queryable)) = (
+            bus.publisher(key.clone(), Lane::Reliable).await,
+            bus.queryable(&key).await,
+        ) else {
+            tracing::error!("cannot declare {key}");
+            return;
+        };
+        let status = || {
+            let (time, details) = details();
+            let (bad_payloads, bad_payloads_by_key) = bus.bad_payloads().snapshot();
+            ServiceStatus {
+                service: bus.service().to_string(),
+                pid: std::process::id(),
+                time,
+                bad_payloads,
+                bad_payloads_by_key,
+                details,
+            }
+        };
+        let mut every_second = tokio::time::interval(Duration::from_secs(1));
+        loop {
+            tokio::select! {
+                _ = every_second.tick() => {
+                    let _ = publisher.put(&status()).await;
+                }
+                Ok(query) = queryable.recv_async() => {
+                    bus.reply(&query, &status()).await;
+                }
+            }
+        }
+    });
+}
