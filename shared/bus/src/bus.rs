@@ -312,3 +312,34 @@ impl JsonPublisher {
             .unwrap_or(false)
     }
 }
+
+impl Bus {
+    /// The newest decodable sample of a subscription, skipping any that queued
+    /// up meanwhile (for the clock: only the latest time matters).
+    pub async fn next_latest<T: DeserializeOwned>(
+        &self,
+        subscriber: &zenoh::pubsub::Subscriber<zenoh::handlers::FifoChannelHandler<Sample>>,
+    ) -> Option<T> {
+        loop {
+            let mut sample = subscriber.recv_async().await.ok()?;
+            while let Ok(Some(newer)) = subscriber.try_recv() {
+                sample = newer;
+            }
+            if let Some(v) = self.decode::<T>(&sample) {
+                return Some(v);
+            }
+        }
+    }
+
+    /// Answers a query on a wildcard key with one reply at `key`.
+    pub async fn reply_at<T: Serialize>(&self, query: &Query, key: &str, value: &T) {
+        let bytes = serde_json::to_vec(value).expect("wire types serialise");
+        if let Err(e) = query
+            .reply(key.to_string(), bytes)
+            .encoding(Encoding::APPLICATION_JSON)
+            .await
+        {
+            tracing::warn!("could not answer {}: {e}", query.key_expr());
+        }
+    }
+}

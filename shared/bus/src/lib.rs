@@ -6,6 +6,7 @@
 mod bus;
 mod keys;
 mod session;
+pub mod runtime;
 mod status;
 
 pub use bus::{Bus, JsonPublisher, Lane};

@@ -11,3 +11,13 @@ pub use files::{
     write_atomic,
 };
 pub use grid::{GridOptions, grid_map};
+
+/// Loads a map file and compiles it into the simulation's lane network, with
+/// every problem of the start-up checklist named.
+pub fn load_network(path: &std::path::Path) -> Result<trafficmesh_sim::LaneNetwork, FileError> {
+    let map = load_map(path)?;
+    trafficmesh_sim::LaneNetwork::build(&map).map_err(|problems| FileError::Invalid {
+        path: path.to_owned(),
+        problems,
+    })
+}

@@ -20,6 +20,17 @@ pub enum SelectionMode {
 }
 
 impl SelectionMode {
+    pub fn parse(name: &str) -> Option<Self> {
+        [
+            SelectionMode::Weighted,
+            SelectionMode::UniformNoConfig,
+            SelectionMode::UniformNoMatchingWeights,
+            SelectionMode::UniformWeightedFallback,
+        ]
+        .into_iter()
+        .find(|m| m.as_str() == name)
+    }
+
     pub fn as_str(self) -> &'static str {
         match self {
             SelectionMode::Weighted => "weighted",

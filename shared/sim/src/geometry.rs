@@ -220,3 +220,33 @@ fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
             (lo.min(v), hi.max(v))
         })
 }
+
+/// Whether `p` lies inside the simple polygon `poly` (even-odd rule).
+pub fn point_in_polygon(p: DVec2, poly: &[DVec2]) -> bool {
+    let mut inside = false;
+    let n = poly.len();
+    for i in 0..n {
+        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
+        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
+            inside = !inside;
+        }
+    }
+    inside
+}
+
+/// Whether two simple polygons (convex or not) overlap: an edge crossing or
+/// one holding a vertex of the other.
+pub fn polygons_overlap(a: &[DVec2], b: &[DVec2]) -> bool {
+    if a.len() < 3 || b.len() < 3 {
+        return false;
+    }
+    let edges = |poly: &[DVec2]| {
+        let n = poly.len();
+        (0..n).map(move |i| (poly[i], poly[(i + 1) % n])).collect::<Vec<_>>()
+    };
+    let (ea, eb) = (edges(a), edges(b));
+    ea.iter()
+        .any(|&(a1, a2)| eb.iter().any(|&(b1, b2)| segments_intersect(a1, a2, b1, b2)))
+        || point_in_polygon(a[0], b)
+        || point_in_polygon(b[0], a)
+}

@@ -5,17 +5,11 @@ pub mod sim;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use trafficmesh_maps::FileError;
 use trafficmesh_sim::LaneNetwork;
 
 /// Loads and compiles a native map, with every problem named.
 pub fn load_network(path: &Path) -> Result<LaneNetwork> {
-    let map = trafficmesh_maps::load_map(path)?;
-    let network = LaneNetwork::build(&map).map_err(|problems| FileError::Invalid {
-        path: path.to_owned(),
-        problems,
-    })?;
-    Ok(network)
+    Ok(trafficmesh_maps::load_network(path)?)
 }
 
 /// A rayon pool of `threads` workers (0 = one per core).

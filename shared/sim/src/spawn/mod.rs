@@ -5,12 +5,14 @@
 //! priority, IsSpawnable, max vehicle count). A user-defined simulator implements
 //! [`TrafficSimulator`] and is added with `World::add_traffic_simulator`.
 
+mod external;
 mod manager;
 mod random;
 mod route;
 
 use std::sync::Arc;
 
+pub use external::{ExternalSimulator, PendingProposal, SharedExternal};
 pub use manager::{SpawnManager, SpawnOutcome, SpawnRequest, SpawnStats};
 pub use random::RandomTrafficSimulator;
 pub use route::RouteTrafficSimulator;

@@ -109,6 +109,11 @@ impl World {
         }
     }
 
+    /// Index of a vehicle kind by name (case-insensitive, built-in catalogue).
+    pub fn kind_index(&mut self, name: &str) -> Option<usize> {
+        self.net.kind_index(name)
+    }
+
     pub fn network(&self) -> &LaneNetwork {
         &self.net
     }
@@ -209,6 +214,14 @@ impl World {
         self.set_light(group, LightControl::Remote { color, valid_until })
     }
 
+    /// Whether any remotely controlled light group has gone past its validity.
+    pub fn lights_stale(&self) -> bool {
+        (0..self.lights.len()).any(|g| {
+            matches!(self.lights.control(g),
+                LightControl::Remote { valid_until, .. } if self.time > valid_until)
+        })
+    }
+
     /// Extends the validity of every remotely controlled light group (the
     /// lights service's heartbeat).
     pub fn extend_remote_lights(&mut self, valid_until: f64) {
@@ -286,6 +299,19 @@ impl World {
             }
         }
         count
+    }
+
+    /// Removes one vehicle by id on the next tick; returns 1 if it existed.
+    pub fn remove_vehicle(&mut self, id: VehicleId) -> usize {
+        match self.vehicles.binary_search_by_key(&id, |v| v.id) {
+            Ok(i) if !self.vehicles[i].should_despawn => {
+                let v = &mut self.vehicles[i];
+                v.should_despawn = true;
+                v.despawn_reason = Some(DespawnReason::Removed);
+                1
+            }
+            _ => 0,
+        }
     }
 
     /// RemoveVehiclesInRadius around a 2D point at height 0.

@@ -1,0 +1,272 @@
+//! trafficmesh-crosswalks: the ZebraCrossingArea role. Agent footprints from
+//! any source become enter/exit events per area (detected types, whitelists,
+//! one count per root); occupancy goes out on change with a heartbeat that
+//! keeps it valid; the blocked-stop query is answered here.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use glam::DVec2;
+use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, is_plain_chunk, runtime};
+use trafficmesh_model::wire::{
+    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, Heartbeat,
+};
+use trafficmesh_sim::LaneNetwork;
+use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
+use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
+
+#[derive(Parser)]
+#[command(
+    name = "trafficmesh-crosswalks",
+    version,
+    about = "Crosswalk occupancy from pedestrian and cyclist poses, and the blocked-stop query",
+    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+)]
+struct Args {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Map file (native `.map.json`).
+    #[arg(long)]
+    map: PathBuf,
+    /// Simulation seconds published occupancy stays valid without a heartbeat;
+    /// after that the stepper counts every crosswalk blocked.
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    validity: f64,
+    /// Wall-clock seconds after which a silent agent source is forgotten.
+    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
+    source_timeout: f64,
+}
+
+struct Areas {
+    net: LaneNetwork,
+    occupancy: Occupancy,
+    agents: AgentOccupancy,
+    last_heard: BTreeMap<String, Instant>,
+    time: f64,
+}
+
+impl Areas {
+    fn state(&self, area: usize, validity: f64) -> CrosswalkOccupancy {
+        let occupants: Vec<String> = self.occupancy.occupants(area).iter().cloned().collect();
+        CrosswalkOccupancy {
+            area: self.net.crosswalks[area].name.clone(),
+            occupied: !occupants.is_empty(),
+            occupants,
+            valid_until: self.time + validity,
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    runtime::init_logging();
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    if !(args.validity.is_finite() && args.validity > 0.0) {
+        bail!("--validity must be a positive number of seconds, got {}", args.validity);
+    }
+    if !(args.source_timeout.is_finite() && args.source_timeout > 0.0) {
+        bail!("--source-timeout must be a positive number of seconds, got {}", args.source_timeout);
+    }
+    args.bus.keys()?;
+    let net = trafficmesh_maps::load_network(&args.map)?;
+    if let Some(c) = net.crosswalks.iter().find(|c| !is_plain_chunk(&c.name)) {
+        bail!("crosswalk '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces", c.name);
+    }
+    let occupancy = Occupancy::new(net.crosswalks.len());
+    let areas = Arc::new(Mutex::new(Areas {
+        net,
+        occupancy,
+        agents: AgentOccupancy::default(),
+        last_heard: BTreeMap::new(),
+        time: 0.0,
+    }));
+    let validity = args.validity;
+    let timeout = Duration::from_secs_f64(args.source_timeout);
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?
+        .block_on(async move {
+            let mut bus = Bus::open(&args.bus, Role::Member, "crosswalks").await?;
+            bus.announce().await?;
+            let bus = Arc::new(bus);
+            let status = areas.clone();
+            trafficmesh_bus::serve_status(
+                bus.clone(),
+                Arc::new(move || {
+                    let a = status.lock().expect("areas lock");
+                    (
+                        a.time,
+                        serde_json::json!({
+                            "areas": a.net.crosswalks.len(),
+                            "occupied": a.occupancy.occupied_areas().len(),
+                            "sources": a.last_heard.len(),
+                        }),
+                    )
+                }),
+            );
+            tokio::spawn(take_agents(bus.clone(), areas.clone(), validity));
+            tokio::spawn(answer_queries(bus.clone(), areas.clone(), validity));
+            tokio::select! {
+                r = follow_clock(bus.clone(), areas.clone(), validity, timeout) => r?,
+                _ = runtime::shutdown_signal() => {}
+            }
+            Ok(())
+        })
+}
+
+async fn publish(bus: &Bus, states: Vec<CrosswalkOccupancy>) {
+    for s in states {
+        if let Err(e) = bus.put(&bus.keys().occupancy(&s.area), &s).await {
+            tracing::warn!("cannot publish occupancy: {e}");
+        }
+    }
+}
+
+/// `agents/*`: each source's full set of agents.
+async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
+    let keys = bus.keys().clone();
+    let Ok(subscriber) = bus.subscribe(&keys.all_agents()).await else {
+        tracing::error!("cannot subscribe to {}", keys.all_agents());
+        return;
+    };
+    while let Ok(sample) = subscriber.recv_async().await {
+        let key = sample.key_expr().as_str().to_string();
+        let Some(batch) = bus.decode::<AgentBatch>(&sample) else {
+            continue;
+        };
+        if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
+            bus.reject(&key, &problem);
+            continue;
+        }
+        let source = Keys::last_chunk(&key).to_string();
+        let poses: Vec<AgentPose> = batch
+            .agents
+            .iter()
+            .map(|a| AgentPose {
+                id: a.id.clone(),
+                root: a.root.clone(),
+                kind: OccupantType::parse(&a.kind),
+                footprint: a.footprint.iter().map(|p| DVec2::new(p[0], p[1])).collect(),
+            })
+            .collect();
+        let changed = {
+            let mut guard = areas.lock().expect("areas lock");
+            let a = &mut *guard;
+            a.last_heard.insert(source.clone(), Instant::now());
+            let changed = a
+                .agents
+                .update_source(&a.net.crosswalks, &mut a.occupancy, &source, &poses);
+            changed.into_iter().map(|i| a.state(i, validity)).collect()
+        };
+        publish(&bus, changed).await;
+    }
+}
+
+/// Heartbeats on the stepper's clock, and forgetting silent sources.
+async fn follow_clock(
+    bus: Arc<Bus>,
+    areas: Arc<Mutex<Areas>>,
+    validity: f64,
+    timeout: Duration,
+) -> Result<()> {
+    let keys = bus.keys().clone();
+    let clock = bus.subscribe(&keys.clock()).await?;
+    let heartbeat = bus.publisher(keys.crosswalks_heartbeat(), Lane::Reliable).await?;
+    let mut last_beat = f64::NEG_INFINITY;
+    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
+        if !c.time.is_finite() {
+            bus.reject(&keys.clock(), "time is not a finite number");
+            continue;
+        }
+        let changed = {
+            let mut guard = areas.lock().expect("areas lock");
+            let a = &mut *guard;
+            a.time = c.time;
+            let silent: Vec<String> = a
+                .last_heard
+                .iter()
+                .filter(|(_, at)| at.elapsed() > timeout)
+                .map(|(s, _)| s.clone())
+                .collect();
+            let mut changed = std::collections::BTreeSet::new();
+            for s in silent {
+                tracing::info!("agent source '{s}' went quiet; its agents are gone");
+                a.last_heard.remove(&s);
+                changed.extend(a.agents.drop_source(&a.net.crosswalks, &mut a.occupancy, &s));
+            }
+            changed.into_iter().map(|i| a.state(i, validity)).collect::<Vec<_>>()
+        };
+        publish(&bus, changed).await;
+        if c.time - last_beat >= validity / 4.0 {
+            last_beat = c.time;
+            heartbeat
+                .put(&Heartbeat { time: c.time, valid_until: c.time + validity })
+                .await?;
+        }
+    }
+    Ok(())
+}
+
+/// `crosswalks/occupancy/*` (current states) and `crosswalks/blocked_stop`.
+async fn answer_queries(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
+    let keys = bus.keys().clone();
+    let (Ok(states), Ok(blocked)) = (
+        bus.queryable(&keys.occupancies()).await,
+        bus.queryable(&keys.blocked_stop()).await,
+    ) else {
+        tracing::error!("cannot declare the crosswalk queryables");
+        return;
+    };
+    loop {
+        tokio::select! {
+            Ok(query) = states.recv_async() => {
+                let all: Vec<CrosswalkOccupancy> = {
+                    let a = areas.lock().expect("areas lock");
+                    (0..a.net.crosswalks.len()).map(|i| a.state(i, validity)).collect()
+                };
+                for s in all {
+                    bus.reply_at(&query, &keys.occupancy(&s.area), &s).await;
+                }
+            }
+            Ok(query) = blocked.recv_async() => {
+                let Some(q) = bus.query_payload::<BlockedStopQuery>(&query).await else { continue };
+                if let Some(bad) = trafficmesh_model::wire::first_non_finite(&[("x", q.x), ("y", q.y), ("yaw", q.yaw)]) {
+                    let reason = format!("{bad} is not a finite number");
+                    bus.reject(query.key_expr().as_str(), &reason);
+                    bus.reply_error(&query, &reason).await;
+                    continue;
+                }
+                let answer = {
+                    let a = areas.lock().expect("areas lock");
+                    let hit = try_get_blocked_stop(
+                        &a.net.crosswalks,
+                        &a.occupancy,
+                        DVec2::new(q.x, q.y),
+                        DVec2::from_angle(q.yaw),
+                    );
+                    BlockedStopAnswer {
+                        blocked: hit.is_some(),
+                        distance: hit.map(|(d, _)| d),
+                        area: hit.map(|(_, i)| a.net.crosswalks[i].name.clone()),
+                    }
+                };
+                bus.reply(&query, &answer).await;
+            }
+        }
+    }
+}

@@ -1,0 +1,235 @@
+//! trafficmesh-lights: runs each light group's fixed-time program on the
+//! stepper's clock. Publishes a group's state when it changes, a heartbeat that
+//! keeps every state valid, answers the current states and takes overrides.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use trafficmesh_bus::{Bus, BusArgs, Lane, Role, is_plain_chunk, runtime};
+use trafficmesh_model::wire::{Clock, Heartbeat, LightOverride, LightState};
+use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_sim::LaneNetwork;
+use trafficmesh_sim::lights::{LightControl, Lights};
+
+#[derive(Parser)]
+#[command(
+    name = "trafficmesh-lights",
+    version,
+    about = "Traffic-light programs on the stepper's clock: states, heartbeat, overrides",
+    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+)]
+struct Args {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Map file (native `.map.json`).
+    #[arg(long)]
+    map: PathBuf,
+    /// Simulation seconds a published state stays valid without a heartbeat;
+    /// after that the stepper counts the group red.
+    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
+    validity: f64,
+}
+
+struct Groups {
+    net: LaneNetwork,
+    lights: Lights,
+    time: f64,
+    published: Vec<Option<LightColor>>,
+    last_beat: f64,
+}
+
+impl Groups {
+    fn state(&self, g: usize, validity: f64) -> LightState {
+        let s = self.lights.state(g);
+        LightState {
+            group: self.net.light_groups[g].name.clone(),
+            color: s.color,
+            next_change: s.next_change.is_finite().then_some(s.next_change),
+            valid_until: self.time + validity,
+            forced: matches!(self.lights.control(g), LightControl::Forced(_)),
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    runtime::init_logging();
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    if !(args.validity.is_finite() && args.validity > 0.0) {
+        bail!("--validity must be a positive number of seconds, got {}", args.validity);
+    }
+    args.bus.keys()?;
+    let net = trafficmesh_maps::load_network(&args.map)?;
+    if let Some(g) = net.light_groups.iter().find(|g| !is_plain_chunk(&g.name)) {
+        bail!("light group '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces", g.name);
+    }
+    let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
+    let n = net.light_groups.len();
+    let groups = Arc::new(Mutex::new(Groups {
+        net,
+        lights,
+        time: 0.0,
+        published: vec![None; n],
+        last_beat: f64::NEG_INFINITY,
+    }));
+    let validity = args.validity;
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?
+        .block_on(async move {
+            let mut bus = Bus::open(&args.bus, Role::Member, "lights").await?;
+            bus.announce().await?;
+            let bus = Arc::new(bus);
+            let status = groups.clone();
+            trafficmesh_bus::serve_status(
+                bus.clone(),
+                Arc::new(move || {
+                    let g = status.lock().expect("lights lock");
+                    (g.time, serde_json::json!({ "groups": g.published.len() }))
+                }),
+            );
+            tokio::spawn(answer_states(bus.clone(), groups.clone(), validity));
+            tokio::spawn(take_overrides(bus.clone(), groups.clone(), validity));
+            tokio::select! {
+                r = follow_clock(bus.clone(), groups.clone(), validity) => r?,
+                _ = runtime::shutdown_signal() => {}
+            }
+            Ok(())
+        })
+}
+
+/// On every clock tick: states that changed, and a heartbeat every validity/4.
+async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
+    let keys = bus.keys().clone();
+    let clock = bus.subscribe(&keys.clock()).await?;
+    let heartbeat = bus.publisher(keys.lights_heartbeat(), Lane::Reliable).await?;
+    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
+        if !c.time.is_finite() {
+            bus.reject(&keys.clock(), "time is not a finite number");
+            continue;
+        }
+        let (changed, beat) = {
+            let mut g = groups.lock().expect("lights lock");
+            g.time = c.time;
+            g.lights.update(c.time);
+            let mut changed = Vec::new();
+            for i in 0..g.published.len() {
+                let color = g.lights.state(i).color;
+                if g.published[i] != Some(color) {
+                    g.published[i] = Some(color);
+                    changed.push(g.state(i, validity));
+                }
+            }
+            let beat = c.time - g.last_beat >= validity / 4.0;
+            if beat {
+                g.last_beat = c.time;
+            }
+            (changed, beat.then_some(Heartbeat { time: c.time, valid_until: c.time + validity }))
+        };
+        for s in changed {
+            bus.put(&keys.light_state(&s.group), &s).await?;
+        }
+        if let Some(b) = beat {
+            heartbeat.put(&b).await?;
+        }
+    }
+    Ok(())
+}
+
+/// `lights/state/*` as a query: every group's current state (late joiners).
+async fn answer_states(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) {
+    let keys = bus.keys().clone();
+    let Ok(queryable) = bus.queryable(&keys.light_states()).await else {
+        tracing::error!("cannot declare {}", keys.light_states());
+        return;
+    };
+    while let Ok(query) = queryable.recv_async().await {
+        let states: Vec<LightState> = {
+            let g = groups.lock().expect("lights lock");
+            (0..g.published.len()).map(|i| g.state(i, validity)).collect()
+        };
+        for s in states {
+            let key = keys.light_state(&s.group);
+            if query.key_expr().intersects(&zenoh::key_expr::KeyExpr::try_from(key.as_str()).expect("plain key")) {
+                bus.reply_at(&query, &key, &s).await;
+            }
+        }
+    }
+}
+
+/// `lights/override`: force a colour, set a program, or return to the map's.
+async fn take_overrides(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) {
+    let keys = bus.keys().clone();
+    let Ok(queryable) = bus.queryable(&keys.lights_override()).await else {
+        tracing::error!("cannot declare {}", keys.lights_override());
+        return;
+    };
+    while let Ok(query) = queryable.recv_async().await {
+        let Some(o) = bus.query_payload::<LightOverride>(&query).await else {
+            continue;
+        };
+        let result = {
+            let mut g = groups.lock().expect("lights lock");
+            apply_override(&mut g, &o, validity)
+        };
+        match result {
+            Ok(state) => {
+                tracing::info!("light group '{}' overridden: {:?}", o.group, state.color);
+                let _ = bus.put(&keys.light_state(&state.group), &state).await;
+                bus.reply(&query, &state).await;
+            }
+            Err(reason) => {
+                bus.reject(query.key_expr().as_str(), &reason);
+                bus.reply_error(&query, &reason).await;
+            }
+        }
+    }
+}
+
+fn apply_override(g: &mut Groups, o: &LightOverride, validity: f64) -> Result<LightState, String> {
+    let i = g
+        .net
+        .light_group(&o.group)
+        .ok_or_else(|| format!("unknown light group '{}'", o.group))?;
+    let control = match (o.color, o.program) {
+        (Some(_), Some(_)) => return Err("give either color or program, not both".into()),
+        (Some(color), None) => LightControl::Forced(color),
+        (None, Some(p)) => {
+            check_program(&p)?;
+            LightControl::Program(p)
+        }
+        (None, None) => LightControl::Program(g.net.light_groups[i].program),
+    };
+    let t = g.time;
+    g.lights.set_control(i, control, t);
+    g.published[i] = Some(g.lights.state(i).color);
+    Ok(g.state(i, validity))
+}
+
+fn check_program(p: &LightProgram) -> Result<(), String> {
+    for (name, v) in [("green", p.green), ("yellow", p.yellow), ("red", p.red)] {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(format!("program.{name} must be a number >= 0, got {v}"));
+        }
+    }
+    if !p.offset.is_finite() {
+        return Err("program.offset must be a finite number".into());
+    }
+    if p.cycle() <= 0.0 {
+        return Err("program cycle (green + yellow + red) must be positive".into());
+    }
+    Ok(())
+}

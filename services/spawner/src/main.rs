@@ -1,0 +1,141 @@
+//! trafficmesh-spawner: the TrafficManager role. Runs the map's random and
+//! route simulators and any external ones, makes the spawn decisions on the
+//! stepper's clock and asks the stepper to spawn the winners; keeps the spawn
+//! config and the branch statistics, and writes the branch CSV on shutdown.
+
+mod queries;
+mod spawn_loop;
+mod state;
+mod subscriptions;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::{Arc, Mutex};
+
+use anyhow::{Context, Result};
+use clap::Parser;
+use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+
+use crate::state::SpawnerState;
+
+#[derive(Parser)]
+#[command(
+    name = "trafficmesh-spawner",
+    version,
+    about = "Spawn decisions, spawn config and branch statistics (the TrafficManager role)",
+    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+)]
+struct Args {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Map file (native `.map.json`).
+    #[arg(long)]
+    map: PathBuf,
+    /// Random seed of the simulators.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// maxVehicleCount: NPC vehicles alive at once.
+    #[arg(long, default_value_t = 40)]
+    max_vehicles: usize,
+    /// Spawn config (the seed's traffic_spawn.json): loaded at start if it
+    /// exists, and the file that save and load use.
+    #[arg(long, default_value = "traffic_spawn.json")]
+    spawn_config: PathBuf,
+    /// Where the branch-decision CSV is written on shutdown.
+    #[arg(long, default_value = "traffic_branch_decisions.csv")]
+    branch_csv: PathBuf,
+}
+
+pub struct Spawner {
+    pub bus: Arc<Bus>,
+    pub state: Mutex<SpawnerState>,
+    pub spawn_config_path: PathBuf,
+}
+
+impl Spawner {
+    pub fn state(&self) -> std::sync::MutexGuard<'_, SpawnerState> {
+        self.state.lock().expect("spawner state lock")
+    }
+
+    /// Publishes the config in force, for the stepper's branch choices.
+    pub async fn publish_config(&self) {
+        let config = self.state().config.clone();
+        if let Err(e) = self.bus.put(&self.bus.keys().spawn_config(), &config).await {
+            tracing::warn!("cannot publish the spawn config: {e}");
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    runtime::init_logging();
+    match run(Args::parse()) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    args.bus.keys()?;
+    let net = trafficmesh_maps::load_network(&args.map)?;
+    let mut state = SpawnerState::new(net, args.seed, args.max_vehicles);
+    if args.spawn_config.exists() {
+        let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;
+        state.set_config(config).map_err(|problems| {
+            anyhow::anyhow!("{}: {}", args.spawn_config.display(), problems.join("; "))
+        })?;
+        tracing::info!("loaded spawn config {}", args.spawn_config.display());
+    }
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    rt.block_on(async move {
+        let mut bus = Bus::open(&args.bus, Role::Member, "spawner").await?;
+        bus.announce().await?;
+        let spawner = Arc::new(Spawner {
+            bus: Arc::new(bus),
+            state: Mutex::new(state),
+            spawn_config_path: args.spawn_config.clone(),
+        });
+        subscriptions::start(spawner.clone()).await?;
+        queries::start(spawner.clone()).await?;
+        let status = spawner.clone();
+        trafficmesh_bus::serve_status(
+            spawner.bus.clone(),
+            Arc::new(move || {
+                let s = status.state();
+                let st = s.manager.stats();
+                (
+                    s.time,
+                    serde_json::json!({
+                        "max_vehicles": s.max_vehicles,
+                        "spawned": st.spawned,
+                        "rejected": {
+                            "too_close_to_ego": st.too_close_to_ego,
+                            "rate_limited": st.rate_limited,
+                            "lost_priority": st.lost_priority,
+                            "not_spawnable": st.not_spawnable,
+                            "max_vehicles": st.max_vehicles,
+                        },
+                        "branch_decisions": s.stats.total(),
+                    }),
+                )
+            }),
+        );
+        spawner.publish_config().await;
+        tokio::spawn(spawn_loop::run(spawner.clone()));
+        runtime::shutdown_signal().await;
+        let csv = spawner.state().branch_csv();
+        let rows = csv.lines().count().saturating_sub(1);
+        trafficmesh_maps::write_atomic(&args.branch_csv, csv.as_bytes())?;
+        tracing::info!(
+            "wrote {rows} branch-decision rows to {}",
+            args.branch_csv.display()
+        );
+        Ok(())
+    })
+}

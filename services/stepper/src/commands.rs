@@ -1,0 +1,167 @@
+//! What the bus asks of the world, applied by the tick thread between ticks.
+
+use std::collections::BTreeSet;
+use std::sync::mpsc::Sender;
+
+use glam::DVec2;
+use tokio::sync::oneshot;
+use trafficmesh_model::TrafficSpawnConfig;
+use trafficmesh_model::wire::{
+    CrosswalkOccupancy, EgoPose, Heartbeat, LightState, RemoveAnswer, RemoveTarget, RestartAnswer,
+    SpawnAnswer, SpawnBatch, SpawnVerdict,
+};
+use trafficmesh_sim::world::SpawnRejection;
+use trafficmesh_sim::{Ego, World};
+
+pub enum Command {
+    Spawn(SpawnBatch, oneshot::Sender<SpawnAnswer>),
+    Remove(RemoveTarget, oneshot::Sender<Result<RemoveAnswer, String>>),
+    Restart(usize, oneshot::Sender<RestartAnswer>),
+    Ego(EgoPose),
+    Light(LightState),
+    LightsHeartbeat(Heartbeat),
+    Occupancy(CrosswalkOccupancy),
+    CrosswalksHeartbeat(Heartbeat),
+    SpawnConfig(TrafficSpawnConfig),
+    Stop,
+}
+
+pub type CommandSender = Sender<Command>;
+
+/// State the tick thread keeps about its inputs between ticks.
+#[derive(Debug)]
+pub struct InputState {
+    /// Simulation time until which the crosswalk states are vouched for.
+    pub crosswalks_valid_until: f64,
+}
+
+impl Default for InputState {
+    fn default() -> Self {
+        // Nothing heard yet: fail-safe, every crosswalk counts as blocked.
+        InputState {
+            crosswalks_valid_until: f64::NEG_INFINITY,
+        }
+    }
+}
+
+/// Applies one command; returns false for Stop. Errors are input problems,
+/// reported back to the caller as bad payloads.
+pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Result<bool, String> {
+    match command {
+        Command::Stop => return Ok(false),
+        Command::Spawn(batch, answer) => {
+            let _ = answer.send(spawn(world, batch));
+        }
+        Command::Remove(target, answer) => {
+            let _ = answer.send(remove(world, target));
+        }
+        Command::Restart(max, answer) => {
+            let disposed = world.vehicles().len();
+            world.restart(max);
+            let _ = answer.send(RestartAnswer {
+                disposed,
+                max_vehicles: max,
+            });
+        }
+        Command::Ego(pose) => {
+            world.set_ego(Some(Ego {
+                pose: trafficmesh_sim::vehicle::Pose {
+                    x: pose.x,
+                    y: pose.y,
+                    z: pose.z,
+                    yaw: pose.yaw,
+                },
+                length: pose.length,
+                width: pose.width,
+                front_offset: pose.front_offset,
+            }));
+        }
+        Command::Light(state) => {
+            world
+                .set_remote_light(&state.group, state.color, state.valid_until)
+                .map_err(|e| e.to_string())?;
+        }
+        Command::LightsHeartbeat(beat) => world.extend_remote_lights(beat.valid_until),
+        Command::Occupancy(o) => {
+            let roots: BTreeSet<String> = o.occupants.into_iter().collect();
+            world
+                .set_crosswalk_occupants(&o.area, roots)
+                .map_err(|e| e.to_string())?;
+            inputs.crosswalks_valid_until = inputs.crosswalks_valid_until.max(o.valid_until);
+        }
+        Command::CrosswalksHeartbeat(beat) => {
+            inputs.crosswalks_valid_until = beat.valid_until;
+        }
+        Command::SpawnConfig(config) => {
+            world.set_spawn_config(config).map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(true)
+}
+
+/// The final IsSpawnable and max-count check of each order, in order.
+fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
+    let mut spawned_here = Vec::new();
+    let verdicts = batch
+        .orders
+        .into_iter()
+        .map(|order| {
+            let Some(lane) = world.network().lane_id(&order.lane) else {
+                return SpawnVerdict::Invalid {
+                    reason: format!("unknown lane '{}'", order.lane),
+                };
+            };
+            let Some(kind) = world.kind_index(&order.kind) else {
+                return SpawnVerdict::Invalid {
+                    reason: format!("unknown vehicle kind '{}'", order.kind),
+                };
+            };
+            let route = match order.route {
+                None => None,
+                Some(names) => {
+                    let mut lanes = Vec::with_capacity(names.len());
+                    for n in &names {
+                        match world.network().lane_id(n) {
+                            Some(l) => lanes.push(l),
+                            None => {
+                                return SpawnVerdict::Invalid {
+                                    reason: format!("unknown route lane '{n}'"),
+                                };
+                            }
+                        }
+                    }
+                    Some(lanes.into())
+                }
+            };
+            match world.admit_spawn(kind, lane, route, batch.max_vehicles, &mut spawned_here) {
+                Ok(id) => SpawnVerdict::Spawned { id },
+                Err(SpawnRejection::MaxVehicles) => SpawnVerdict::MaxVehicles,
+                Err(SpawnRejection::NotSpawnable) => SpawnVerdict::NotSpawnable,
+                Err(e) => SpawnVerdict::Invalid {
+                    reason: e.to_string(),
+                },
+            }
+        })
+        .collect();
+    SpawnAnswer { verdicts }
+}
+
+fn remove(world: &mut World, target: RemoveTarget) -> Result<RemoveAnswer, String> {
+    if let Some(problem) = target.problem() {
+        return Err(problem);
+    }
+    let removed = match target {
+        RemoveTarget::Point { x, y, z, radius } => {
+            world.remove_vehicles_in_radius(glam::DVec3::new(x, y, z), radius)
+        }
+        RemoveTarget::Ego { radius } => match world.ego() {
+            Some(ego) => {
+                let p = ego.position();
+                world.remove_vehicles_near(DVec2::new(p.x, p.y), radius)
+            }
+            None => return Err("no ego pose has been published".into()),
+        },
+        RemoveTarget::Vehicle { id } => world.remove_vehicle(id),
+    };
+    Ok(RemoveAnswer { removed })
+}

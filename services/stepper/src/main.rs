@@ -1,0 +1,132 @@
+//! trafficmesh-stepper: owns simulation time. Each tick it applies what arrived
+//! from the bus (spawn requests, removals, light and crosswalk states, the ego),
+//! steps the world of `shared/sim` and publishes the clock, the vehicle batch
+//! and the events.
+
+mod commands;
+mod inputs;
+mod telemetry;
+mod tick_loop;
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+use trafficmesh_sim::{World, WorldConfig};
+
+#[derive(Parser)]
+#[command(
+    name = "trafficmesh-stepper",
+    version,
+    about = "Steps every NPC vehicle each tick and publishes the clock, vehicle states and events",
+    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+)]
+pub struct Args {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Map file (native `.map.json`).
+    #[arg(long)]
+    map: PathBuf,
+    /// Random seed of the vehicles' branch choices.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Tick length, seconds of simulation time.
+    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
+    dt: f64,
+    /// Simulation seconds per wall-clock second; 0 runs as fast as possible.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    speed: f64,
+    /// Worker threads for the vehicle pipeline (0 = one per core).
+    #[arg(long, default_value_t = 0)]
+    threads: usize,
+    /// Stop after this many simulated seconds (default: run until stopped).
+    #[arg(long, allow_negative_numbers = true)]
+    duration: Option<f64>,
+}
+
+fn main() -> ExitCode {
+    runtime::init_logging();
+    let args = Args::parse();
+    match run(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(2)
+        }
+    }
+}
+
+fn run(args: Args) -> Result<()> {
+    if !(args.dt.is_finite() && args.dt > 0.0 && args.dt <= 1.0) {
+        bail!("--dt must be in (0, 1] seconds, got {}", args.dt);
+    }
+    if !(args.speed.is_finite() && args.speed >= 0.0) {
+        bail!("--speed must be 0 (as fast as possible) or a positive factor, got {}", args.speed);
+    }
+    if let Some(d) = args.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration must be a positive number of seconds, got {d}");
+    }
+    args.bus.keys()?;
+    let net = trafficmesh_maps::load_network(&args.map)?;
+    let config = WorldConfig {
+        seed: args.seed,
+        dt: args.dt,
+        // The spawner's request carries the maximum; the world's own is unused.
+        max_vehicles: usize::MAX,
+        ..WorldConfig::default()
+    };
+    let world = World::new(net, config).without_simulators();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .context("cannot start worker threads")?;
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    rt.block_on(async move {
+        let mut bus = Bus::open(&args.bus, Role::Hub, "stepper").await?;
+        bus.announce().await?;
+        let bus = Arc::new(bus);
+        let (tx, rx) = std::sync::mpsc::channel();
+        let shared = Arc::new(inputs::Shared::default());
+        inputs::start(bus.clone(), world.network(), tx.clone(), shared.clone()).await?;
+        let outputs = telemetry::start(bus.clone(), world.network()).await?;
+        let status = shared.clone();
+        trafficmesh_bus::serve_status(
+            bus.clone(),
+            Arc::new(move || status.status()),
+        );
+        inputs::fetch_late_states(&bus, &tx).await;
+        let pacing = tick_loop::Pacing {
+            speed: args.speed,
+            duration: args.duration,
+        };
+        let handle = std::thread::Builder::new()
+            .name("tick".into())
+            .spawn(move || pool.install(|| tick_loop::run(world, rx, outputs, pacing, shared)))
+            .context("cannot start the tick thread")?;
+        tokio::select! {
+            _ = runtime::shutdown_signal() => {
+                let _ = tx.send(commands::Command::Stop);
+            }
+            _ = wait_thread(&handle) => {}
+        }
+        tokio::task::spawn_blocking(move || handle.join())
+            .await
+            .ok();
+        Ok(())
+    })
+}
+
+async fn wait_thread(handle: &std::thread::JoinHandle<()>) {
+    while !handle.is_finished() {
+        tokio::time::sleep(std::time::Duration::from_millis(50)).await;
+    }
+}

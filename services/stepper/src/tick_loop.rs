@@ -1,0 +1,105 @@
+//! The tick thread: commands in, one world step, output out, then wait for the
+//! next tick's wall-clock deadline (unless running as fast as possible).
+
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
+use std::sync::mpsc::{Receiver, TryRecvError};
+use std::time::{Duration, Instant};
+
+use trafficmesh_model::wire::{Clock, Event};
+use trafficmesh_sim::World;
+
+use crate::commands::{self, Command, InputState};
+use crate::inputs::Shared;
+use crate::telemetry::{Outputs, TickOutput, wire_events};
+
+pub struct Pacing {
+    /// Simulation seconds per wall second; 0 = as fast as possible.
+    pub speed: f64,
+    pub duration: Option<f64>,
+}
+
+pub fn run(
+    mut world: World,
+    commands: Receiver<Command>,
+    mut outputs: Outputs,
+    pacing: Pacing,
+    shared: Arc<Shared>,
+) {
+    let dt = world.config().dt;
+    let mut inputs = InputState::default();
+    let started = Instant::now();
+    let mut rate_window = (Instant::now(), 0u64);
+    let mut tick_rate = 0.0;
+    let (mut spawned, mut despawned) = (0u64, 0u64);
+    loop {
+        // Everything that arrived since the last tick, in arrival order.
+        loop {
+            match commands.try_recv() {
+                Ok(c) => match commands::apply(&mut world, &mut inputs, c) {
+                    Ok(true) => {}
+                    Ok(false) => return,
+                    Err(e) => tracing::warn!("input refused: {e}"),
+                },
+                Err(TryRecvError::Empty) => break,
+                Err(TryRecvError::Disconnected) => return,
+            }
+        }
+        world.set_crosswalks_stale(world.time() > inputs.crosswalks_valid_until);
+        let t0 = Instant::now();
+        world.step();
+        let tick_ms = t0.elapsed().as_secs_f64() * 1e3;
+
+        let raw: Vec<_> = world.drain_events().collect();
+        let events: Vec<Event> = wire_events(&world, raw);
+        for e in &events {
+            match e {
+                Event::Spawned { .. } => spawned += 1,
+                Event::Despawned { .. } => despawned += 1,
+                Event::ZebraStop { .. } | Event::ZebraClear { .. } | Event::BranchDecision { .. } => {}
+            }
+        }
+        rate_window.1 += 1;
+        if rate_window.0.elapsed() >= Duration::from_secs(1) {
+            tick_rate = rate_window.1 as f64 / rate_window.0.elapsed().as_secs_f64();
+            rate_window = (Instant::now(), 0);
+        }
+        let clock = Clock {
+            tick: world.ticks(),
+            time: world.time(),
+            dt,
+            vehicles: world.vehicles().len(),
+            tick_ms,
+            tick_rate,
+        };
+        {
+            let mut s = shared.status.lock().expect("status lock");
+            s.tick = clock.tick;
+            s.time = clock.time;
+            s.vehicles = clock.vehicles;
+            s.tick_ms = tick_ms;
+            s.tick_rate = tick_rate;
+            s.spawned = spawned;
+            s.despawned = despawned;
+            s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
+            s.crosswalks_stale = world.occupancy().is_stale();
+            s.lights_stale = world.lights_stale();
+        }
+        let vehicles = outputs.vehicle_states(&world);
+        outputs.offer(TickOutput {
+            clock,
+            vehicles,
+            events,
+        });
+        if pacing.duration.is_some_and(|d| world.time() >= d - 1e-9) {
+            return;
+        }
+        if pacing.speed > 0.0 {
+            let due = started + Duration::from_secs_f64(world.time() / pacing.speed);
+            let now = Instant::now();
+            if due > now {
+                std::thread::sleep(due - now);
+            }
+        }
+    }
+}
