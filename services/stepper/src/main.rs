@@ -42,6 +42,9 @@ pub struct Args {
     /// Worker threads for the vehicle pipeline (0 = one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Vehicles placed on the map at start (benchmarks); 0 = none.
+    #[arg(long, default_value_t = 0)]
+    populate: usize,
     /// Stop after this many simulated seconds (default: run until stopped).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
@@ -80,7 +83,11 @@ fn run(args: Args) -> Result<()> {
         max_vehicles: usize::MAX,
         ..WorldConfig::default()
     };
-    let world = World::new(net, config).without_simulators();
+    let mut world = World::new(net, config).without_simulators();
+    if args.populate > 0 {
+        let placed = trafficmesh_sim::populate::populate(&mut world, args.populate);
+        tracing::info!("placed {placed} vehicles");
+    }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()

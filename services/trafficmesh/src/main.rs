@@ -14,6 +14,9 @@ use clap::{Parser, Subcommand};
     version,
     about = "Deterministic NPC traffic simulation for autonomous-driving and traffic studies",
     after_help = "Examples:
+  trafficmesh up                       # the whole cluster, configs/cluster.toml
+  trafficmesh watch                    # one summary line per second from the bus
+  trafficmesh ego --x 10 --y -3.5 --yaw 0
   trafficmesh sim --map configs/maps/four_way.map.json --duration 600 --out out
   trafficmesh gen-grid --size 5 --out grid5.map.json
   trafficmesh sim --map grid5.map.json --duration 1800 --max-vehicles 250 --seed 3 --json
@@ -30,6 +33,12 @@ enum Command {
     Sim(commands::sim::SimArgs),
     /// Write an N x N signalised grid map (two lanes per direction).
     GenGrid(commands::gen_grid::GenGridArgs),
+    /// Start the whole cluster on this machine (every service a child process).
+    Up(commands::up::UpArgs),
+    /// Print a live one-line summary per second from the bus.
+    Watch(commands::watch::WatchArgs),
+    /// Publish an ego vehicle pose on the bus.
+    Ego(commands::ego::EgoArgs),
     /// Benchmarks that print their figures.
     #[command(subcommand)]
     Bench(commands::bench::BenchCommand),
@@ -48,6 +57,9 @@ fn main() -> ExitCode {
         Command::Sim(args) => commands::sim::run(args),
         Command::GenGrid(args) => commands::gen_grid::run(args),
         Command::Bench(cmd) => commands::bench::run(cmd),
+        Command::Up(args) => commands::up::run(args),
+        Command::Watch(args) => commands::watch::run(args),
+        Command::Ego(args) => commands::ego::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,6 +1,10 @@
 pub mod bench;
+pub mod cluster_config;
+pub mod ego;
 pub mod gen_grid;
 pub mod sim;
+pub mod up;
+pub mod watch;
 
 use std::path::Path;
 
@@ -18,4 +22,9 @@ pub fn thread_pool(threads: usize) -> Result<rayon::ThreadPool> {
         .num_threads(threads)
         .build()
         .context("cannot start worker threads")
+}
+
+/// Resolves on SIGINT or SIGTERM.
+pub async fn shutdown_signal() {
+    trafficmesh_bus::runtime::shutdown_signal().await
 }

@@ -1,0 +1,201 @@
+//! `configs/cluster.toml`: what `trafficmesh up` starts and with which flags.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result, bail};
+use serde::Deserialize;
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClusterConfig {
+    #[serde(default = "default_cluster")]
+    pub cluster: String,
+    pub map: PathBuf,
+    #[serde(default)]
+    pub seed: u64,
+    #[serde(default = "default_endpoint")]
+    pub endpoint: String,
+    #[serde(default)]
+    pub zenoh_config: Option<PathBuf>,
+    #[serde(default)]
+    pub stepper: StepperSection,
+    #[serde(default)]
+    pub spawner: SpawnerSection,
+    #[serde(default)]
+    pub lights: ValiditySection,
+    #[serde(default)]
+    pub crosswalks: ValiditySection,
+    #[serde(default)]
+    pub pedestrians: PedestriansSection,
+    #[serde(default)]
+    pub restart: RestartSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct StepperSection {
+    pub dt: f64,
+    pub speed: f64,
+    /// Vehicles placed at start (benchmarks); 0 = the spawner fills the map.
+    pub populate: usize,
+}
+impl Default for StepperSection {
+    fn default() -> Self {
+        StepperSection { dt: 0.02, speed: 1.0, populate: 0 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SpawnerSection {
+    pub max_vehicles: usize,
+    pub spawn_config: PathBuf,
+    pub branch_csv: PathBuf,
+}
+impl Default for SpawnerSection {
+    fn default() -> Self {
+        SpawnerSection {
+            max_vehicles: 40,
+            spawn_config: "traffic_spawn.json".into(),
+            branch_csv: "traffic_branch_decisions.csv".into(),
+        }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ValiditySection {
+    pub validity: f64,
+}
+impl Default for ValiditySection {
+    fn default() -> Self {
+        ValiditySection { validity: 2.0 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct PedestriansSection {
+    pub enabled: bool,
+    pub per_minute: f64,
+    pub cyclist_share: f64,
+}
+impl Default for PedestriansSection {
+    fn default() -> Self {
+        PedestriansSection { enabled: true, per_minute: 2.0, cyclist_share: 0.2 }
+    }
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RestartSection {
+    pub initial_backoff_ms: u64,
+    pub max_backoff_ms: u64,
+}
+impl Default for RestartSection {
+    fn default() -> Self {
+        RestartSection { initial_backoff_ms: 250, max_backoff_ms: 8000 }
+    }
+}
+
+fn default_cluster() -> String {
+    "trafficmesh".into()
+}
+fn default_endpoint() -> String {
+    trafficmesh_bus::DEFAULT_ENDPOINT.into()
+}
+
+impl ClusterConfig {
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let config: ClusterConfig =
+            toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        if config.restart.initial_backoff_ms == 0
+            || config.restart.max_backoff_ms < config.restart.initial_backoff_ms
+        {
+            bail!(
+                "{}: restart.initial_backoff_ms must be > 0 and <= max_backoff_ms",
+                path.display()
+            );
+        }
+        Ok(config)
+    }
+
+    /// Every service to start: (name, binary, flags).
+    pub fn services(&self) -> Vec<(&'static str, Vec<String>)> {
+        let map = self.map.display().to_string();
+        let mut common = vec!["--cluster".to_string(), self.cluster.clone()];
+        if let Some(z) = &self.zenoh_config {
+            common.extend(["--zenoh-config".into(), z.display().to_string()]);
+        }
+        let member = |extra: Vec<String>| {
+            let mut flags = common.clone();
+            if self.zenoh_config.is_none() {
+                flags.extend([
+                    "--connect".into(),
+                    self.endpoint.clone(),
+                    "--listen".into(),
+                    "tcp/127.0.0.1:0".into(),
+                ]);
+            }
+            flags.extend(["--map".into(), map.clone()]);
+            flags.extend(extra);
+            flags
+        };
+        let mut stepper = common.clone();
+        if self.zenoh_config.is_none() {
+            stepper.extend(["--listen".into(), self.endpoint.clone()]);
+        }
+        stepper.extend([
+            "--map".into(),
+            map.clone(),
+            "--seed".into(),
+            self.seed.to_string(),
+            "--dt".into(),
+            self.stepper.dt.to_string(),
+            "--speed".into(),
+            self.stepper.speed.to_string(),
+            "--populate".into(),
+            self.stepper.populate.to_string(),
+        ]);
+        let mut list = vec![
+            ("stepper", stepper),
+            (
+                "spawner",
+                member(vec![
+                    "--seed".into(),
+                    self.seed.to_string(),
+                    "--max-vehicles".into(),
+                    self.spawner.max_vehicles.to_string(),
+                    "--spawn-config".into(),
+                    self.spawner.spawn_config.display().to_string(),
+                    "--branch-csv".into(),
+                    self.spawner.branch_csv.display().to_string(),
+                ]),
+            ),
+            (
+                "lights",
+                member(vec!["--validity".into(), self.lights.validity.to_string()]),
+            ),
+            (
+                "crosswalks",
+                member(vec!["--validity".into(), self.crosswalks.validity.to_string()]),
+            ),
+        ];
+        if self.pedestrians.enabled {
+            list.push((
+                "pedestrians",
+                member(vec![
+                    "--seed".into(),
+                    self.seed.to_string(),
+                    "--per-minute".into(),
+                    self.pedestrians.per_minute.to_string(),
+                    "--cyclist-share".into(),
+                    self.pedestrians.cyclist_share.to_string(),
+                ]),
+            ));
+        }
+        list
+    }
+}

@@ -1,0 +1,205 @@
+//! `trafficmesh up`: starts every service as a child process with its own log
+//! prefix, restarts one that dies (with backoff), and on Ctrl-C or SIGTERM
+//! stops them all with SIGTERM so each finishes cleanly (the spawner writes
+//! its CSV).
+
+use std::path::PathBuf;
+use std::process::Stdio;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use tokio::io::{AsyncBufReadExt, AsyncRead, BufReader};
+use tokio::process::{Child, Command};
+use tokio::sync::mpsc;
+
+use super::cluster_config::ClusterConfig;
+
+#[derive(Args)]
+pub struct UpArgs {
+    /// Cluster config (TOML).
+    #[arg(long, default_value = "configs/cluster.toml")]
+    config: PathBuf,
+    /// Overrides the config's cluster name.
+    #[arg(long)]
+    cluster: Option<String>,
+    /// Overrides the config's endpoint (the stepper listens, the others connect).
+    #[arg(long)]
+    endpoint: Option<String>,
+    /// Overrides the config's map.
+    #[arg(long)]
+    map: Option<PathBuf>,
+}
+
+/// Where the service binaries are: next to this one (cargo builds them all
+/// into one directory), else on PATH.
+fn service_binary(service: &str) -> PathBuf {
+    let name = format!("trafficmesh-{service}");
+    std::env::current_exe()
+        .ok()
+        .and_then(|exe| exe.parent().map(|d| d.join(&name)))
+        .filter(|p| p.exists())
+        .unwrap_or_else(|| PathBuf::from(name))
+}
+
+struct Running {
+    name: &'static str,
+    flags: Vec<String>,
+    child: Option<Child>,
+    started: Instant,
+    backoff: Duration,
+    restart_at: Option<Instant>,
+}
+
+pub fn run(a: UpArgs) -> Result<()> {
+    let mut config = ClusterConfig::load(&a.config)?;
+    if let Some(c) = a.cluster {
+        config.cluster = c;
+    }
+    if let Some(e) = a.endpoint {
+        config.endpoint = e;
+    }
+    if let Some(m) = a.map {
+        config.map = m;
+    }
+    // Fail here, with the file named, rather than in five children at once.
+    trafficmesh_maps::load_network(&config.map)?;
+    trafficmesh_bus::Keys::new(&config.cluster)?;
+    if let Some(dir) = config.spawner.branch_csv.parent()
+        && !dir.as_os_str().is_empty()
+    {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?
+        .block_on(supervise(config))
+}
+
+async fn supervise(config: ClusterConfig) -> Result<()> {
+    let initial = Duration::from_millis(config.restart.initial_backoff_ms);
+    let max = Duration::from_millis(config.restart.max_backoff_ms);
+    let (lines, mut line_rx) = mpsc::unbounded_channel::<String>();
+    let mut services: Vec<Running> = config
+        .services()
+        .into_iter()
+        .map(|(name, flags)| Running {
+            name,
+            flags,
+            child: None,
+            started: Instant::now(),
+            backoff: initial,
+            restart_at: Some(Instant::now()),
+        })
+        .collect();
+    tracing::info!(
+        "starting cluster '{}' on {} with {}",
+        config.cluster,
+        config.endpoint,
+        services.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
+    );
+    let stop = crate::commands::shutdown_signal();
+    tokio::pin!(stop);
+    let mut every = tokio::time::interval(Duration::from_millis(50));
+    loop {
+        tokio::select! {
+            _ = &mut stop => break,
+            Some(line) = line_rx.recv() => eprintln!("{line}"),
+            _ = every.tick() => {
+                for s in &mut services {
+                    check(s, &lines, initial, max);
+                }
+            }
+        }
+    }
+    tracing::info!("stopping every service");
+    for s in &mut services {
+        if let Some(child) = &s.child
+            && let Some(pid) = child.id()
+        {
+            // SIGTERM, so each service shuts down cleanly.
+            unsafe { libc::kill(pid as i32, libc::SIGTERM) };
+        }
+    }
+    let deadline = Instant::now() + Duration::from_secs(10);
+    for s in &mut services {
+        if let Some(child) = &mut s.child {
+            let left = deadline.saturating_duration_since(Instant::now());
+            match tokio::time::timeout(left, child.wait()).await {
+                Ok(_) => {}
+                Err(_) => {
+                    tracing::warn!("{} did not stop in time; killing it", s.name);
+                    let _ = child.kill().await;
+                }
+            }
+        }
+    }
+    while let Ok(line) = line_rx.try_recv() {
+        eprintln!("{line}");
+    }
+    tracing::info!("cluster stopped");
+    Ok(())
+}
+
+/// Starts a service that is due, notices one that died and schedules its restart.
+fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Duration, max: Duration) {
+    if let Some(child) = &mut s.child
+        && let Ok(Some(status)) = child.try_wait()
+    {
+        s.child = None;
+        // A service that ran a while gets the short delay again.
+        if s.started.elapsed() > Duration::from_secs(10) {
+            s.backoff = initial;
+        }
+        tracing::warn!(
+            "{} exited ({status}); restarting in {} ms",
+            s.name,
+            s.backoff.as_millis()
+        );
+        s.restart_at = Some(Instant::now() + s.backoff);
+        s.backoff = (s.backoff * 2).min(max);
+    }
+    if s.child.is_none() && s.restart_at.is_some_and(|t| Instant::now() >= t) {
+        s.restart_at = None;
+        match start(s.name, &s.flags, lines) {
+            Ok(child) => {
+                tracing::info!("{} started (pid {})", s.name, child.id().unwrap_or(0));
+                s.child = Some(child);
+                s.started = Instant::now();
+            }
+            Err(e) => {
+                tracing::error!("cannot start {}: {e:#}", s.name);
+                s.restart_at = Some(Instant::now() + s.backoff);
+                s.backoff = (s.backoff * 2).min(max);
+            }
+        }
+    }
+}
+
+fn start(name: &'static str, flags: &[String], lines: &mpsc::UnboundedSender<String>) -> Result<Child> {
+    let binary = service_binary(name);
+    let mut child = Command::new(&binary)
+        .args(flags)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .kill_on_drop(true)
+        .spawn()
+        .with_context(|| format!("cannot run {}", binary.display()))?;
+    forward(name, child.stdout.take().expect("piped"), lines.clone());
+    forward(name, child.stderr.take().expect("piped"), lines.clone());
+    Ok(child)
+}
+
+/// Copies a child's output line by line with the service's name in front.
+fn forward(name: &'static str, out: impl AsyncRead + Unpin + Send + 'static, lines: mpsc::UnboundedSender<String>) {
+    tokio::spawn(async move {
+        let mut reader = BufReader::new(out).lines();
+        while let Ok(Some(line)) = reader.next_line().await {
+            if lines.send(format!("[{name:<11}] {line}")).is_err() {
+                break;
+            }
+        }
+    });
+}

@@ -1,0 +1,108 @@
+//! `trafficmesh watch`: one summary line per second from the bus.
+
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use trafficmesh_bus::{Bus, BusArgs, Keys, Role};
+use trafficmesh_model::LightColor;
+use trafficmesh_model::wire::{Clock, CrosswalkOccupancy, LightState};
+
+#[derive(Args)]
+pub struct WatchArgs {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Stop after this many lines (default: until Ctrl-C).
+    #[arg(long)]
+    count: Option<u64>,
+}
+
+pub fn run(a: WatchArgs) -> Result<()> {
+    a.bus.keys()?;
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?
+        .block_on(async move {
+            let bus = Bus::open(&a.bus, Role::Member, "watch").await?;
+            let keys = bus.keys().clone();
+            let clock = bus.subscribe(&keys.clock()).await?;
+            let lights = bus.subscribe(&keys.light_states()).await?;
+            let crossings = bus.subscribe(&keys.occupancies()).await?;
+            let mut light_colors: BTreeMap<String, LightColor> = BTreeMap::new();
+            let mut occupied: BTreeMap<String, bool> = BTreeMap::new();
+            bus.wait_for_peer(Duration::from_secs(2)).await;
+            for s in bus.get_each::<LightState>(&keys.light_states(), Duration::from_millis(500)).await? {
+                light_colors.insert(s.group, s.color);
+            }
+            for o in bus.get_each::<CrosswalkOccupancy>(&keys.occupancies(), Duration::from_millis(500)).await? {
+                occupied.insert(o.area, o.occupied);
+            }
+            let mut last: Option<Clock> = None;
+            let mut every = tokio::time::interval(Duration::from_secs(1));
+            every.tick().await;
+            let mut printed = 0;
+            loop {
+                tokio::select! {
+                    Ok(s) = clock.recv_async() => last = bus.decode(&s).or(last),
+                    Ok(s) = lights.recv_async() => if let Some(l) = bus.decode::<LightState>(&s) { light_colors.insert(l.group, l.color); },
+                    Ok(s) = crossings.recv_async() => if let Some(o) = bus.decode::<CrosswalkOccupancy>(&s) { occupied.insert(o.area, o.occupied); },
+                    _ = every.tick() => {
+                        let alive = services(&bus, &keys).await;
+                        println!("{}", line(last.as_ref(), &light_colors, &occupied, &alive));
+                        printed += 1;
+                        if a.count.is_some_and(|c| printed >= c) {
+                            return Ok(());
+                        }
+                    }
+                    _ = super::shutdown_signal() => return Ok(()),
+                }
+            }
+        })
+}
+
+async fn services(bus: &Bus, keys: &Keys) -> Vec<String> {
+    let mut names = Vec::new();
+    if let Ok(replies) = bus.session().liveliness().get(keys.all_alive()).timeout(Duration::from_millis(300)).await {
+        while let Ok(r) = replies.recv_async().await {
+            if let Ok(s) = r.result() {
+                names.push(Keys::last_chunk(s.key_expr().as_str()).to_string());
+            }
+        }
+    }
+    names.sort();
+    names
+}
+
+fn line(
+    clock: Option<&Clock>,
+    lights: &BTreeMap<String, LightColor>,
+    occupied: &BTreeMap<String, bool>,
+    alive: &[String],
+) -> String {
+    let count = |c: LightColor| lights.values().filter(|&&v| v == c).count();
+    let sim = match clock {
+        Some(c) => format!(
+            "t={:.1}s vehicles={} ticks/s={:.1} tick={:.2}ms",
+            c.time, c.vehicles, c.tick_rate, c.tick_ms
+        ),
+        None => "no clock (is the stepper running?)".to_string(),
+    };
+    let busy: Vec<&str> = occupied
+        .iter()
+        .filter(|(_, o)| **o)
+        .map(|(a, _)| a.as_str())
+        .collect();
+    format!(
+        "{sim} | lights green/yellow/red={}/{}/{} | crosswalks occupied={}/{} {:?} | up: {}",
+        count(LightColor::Green),
+        count(LightColor::Yellow),
+        count(LightColor::Red),
+        busy.len(),
+        occupied.len(),
+        busy,
+        if alive.is_empty() { "-".to_string() } else { alive.join(",") }
+    )
+}
