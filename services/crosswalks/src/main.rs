@@ -75,15 +75,24 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     if !(args.validity.is_finite() && args.validity > 0.0) {
-        bail!("--validity must be a positive number of seconds, got {}", args.validity);
+        bail!(
+            "--validity must be a positive number of seconds, got {}",
+            args.validity
+        );
     }
     if !(args.source_timeout.is_finite() && args.source_timeout > 0.0) {
-        bail!("--source-timeout must be a positive number of seconds, got {}", args.source_timeout);
+        bail!(
+            "--source-timeout must be a positive number of seconds, got {}",
+            args.source_timeout
+        );
     }
     args.bus.keys()?;
     let net = trafficmesh_maps::load_network(&args.map)?;
     if let Some(c) = net.crosswalks.iter().find(|c| !is_plain_chunk(&c.name)) {
-        bail!("crosswalk '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces", c.name);
+        bail!(
+            "crosswalk '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces",
+            c.name
+        );
     }
     let occupancy = Occupancy::new(net.crosswalks.len());
     let areas = Arc::new(Mutex::new(Areas {
@@ -168,9 +177,9 @@ async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
             let mut guard = areas.lock().expect("areas lock");
             let a = &mut *guard;
             a.last_heard.insert(source.clone(), Instant::now());
-            let changed = a
-                .agents
-                .update_source(&a.net.crosswalks, &mut a.occupancy, &source, &poses);
+            let changed =
+                a.agents
+                    .update_source(&a.net.crosswalks, &mut a.occupancy, &source, &poses);
             changed.into_iter().map(|i| a.state(i, validity)).collect()
         };
         publish(&bus, changed).await;
@@ -186,7 +195,9 @@ async fn follow_clock(
 ) -> Result<()> {
     let keys = bus.keys().clone();
     let clock = bus.subscribe(&keys.clock()).await?;
-    let heartbeat = bus.publisher(keys.crosswalks_heartbeat(), Lane::Reliable).await?;
+    let heartbeat = bus
+        .publisher(keys.crosswalks_heartbeat(), Lane::Reliable)
+        .await?;
     let mut last_beat = f64::NEG_INFINITY;
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         if !c.time.is_finite() {
@@ -207,15 +218,24 @@ async fn follow_clock(
             for s in silent {
                 tracing::info!("agent source '{s}' went quiet; its agents are gone");
                 a.last_heard.remove(&s);
-                changed.extend(a.agents.drop_source(&a.net.crosswalks, &mut a.occupancy, &s));
+                changed.extend(
+                    a.agents
+                        .drop_source(&a.net.crosswalks, &mut a.occupancy, &s),
+                );
             }
-            changed.into_iter().map(|i| a.state(i, validity)).collect::<Vec<_>>()
+            changed
+                .into_iter()
+                .map(|i| a.state(i, validity))
+                .collect::<Vec<_>>()
         };
         publish(&bus, changed).await;
         if c.time - last_beat >= validity / 4.0 {
             last_beat = c.time;
             heartbeat
-                .put(&Heartbeat { time: c.time, valid_until: c.time + validity })
+                .put(&Heartbeat {
+                    time: c.time,
+                    valid_until: c.time + validity,
+                })
                 .await?;
         }
     }

@@ -67,12 +67,18 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     if !(args.validity.is_finite() && args.validity > 0.0) {
-        bail!("--validity must be a positive number of seconds, got {}", args.validity);
+        bail!(
+            "--validity must be a positive number of seconds, got {}",
+            args.validity
+        );
     }
     args.bus.keys()?;
     let net = trafficmesh_maps::load_network(&args.map)?;
     if let Some(g) = net.light_groups.iter().find(|g| !is_plain_chunk(&g.name)) {
-        bail!("light group '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces", g.name);
+        bail!(
+            "light group '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces",
+            g.name
+        );
     }
     let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
     let n = net.light_groups.len();
@@ -115,7 +121,9 @@ fn run(args: Args) -> Result<()> {
 async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
     let keys = bus.keys().clone();
     let clock = bus.subscribe(&keys.clock()).await?;
-    let heartbeat = bus.publisher(keys.lights_heartbeat(), Lane::Reliable).await?;
+    let heartbeat = bus
+        .publisher(keys.lights_heartbeat(), Lane::Reliable)
+        .await?;
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         if !c.time.is_finite() {
             bus.reject(&keys.clock(), "time is not a finite number");
@@ -137,7 +145,13 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
             if beat {
                 g.last_beat = c.time;
             }
-            (changed, beat.then_some(Heartbeat { time: c.time, valid_until: c.time + validity }))
+            (
+                changed,
+                beat.then_some(Heartbeat {
+                    time: c.time,
+                    valid_until: c.time + validity,
+                }),
+            )
         };
         for s in changed {
             bus.put(&keys.light_state(&s.group), &s).await?;
@@ -159,11 +173,16 @@ async fn answer_states(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64)
     while let Ok(query) = queryable.recv_async().await {
         let states: Vec<LightState> = {
             let g = groups.lock().expect("lights lock");
-            (0..g.published.len()).map(|i| g.state(i, validity)).collect()
+            (0..g.published.len())
+                .map(|i| g.state(i, validity))
+                .collect()
         };
         for s in states {
             let key = keys.light_state(&s.group);
-            if query.key_expr().intersects(&zenoh::key_expr::KeyExpr::try_from(key.as_str()).expect("plain key")) {
+            if query
+                .key_expr()
+                .intersects(&zenoh::key_expr::KeyExpr::try_from(key.as_str()).expect("plain key"))
+            {
                 bus.reply_at(&query, &key, &s).await;
             }
         }

@@ -47,10 +47,16 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     if !(args.per_minute.is_finite() && args.per_minute >= 0.0) {
-        bail!("--per-minute must be a number >= 0, got {}", args.per_minute);
+        bail!(
+            "--per-minute must be a number >= 0, got {}",
+            args.per_minute
+        );
     }
     if !(0.0..=1.0).contains(&args.cyclist_share) {
-        bail!("--cyclist-share must be between 0 and 1, got {}", args.cyclist_share);
+        bail!(
+            "--cyclist-share must be between 0 and 1, got {}",
+            args.cyclist_share
+        );
     }
     args.bus.keys()?;
     let net = trafficmesh_maps::load_network(&args.map)?;
@@ -70,7 +76,9 @@ fn run(args: Args) -> Result<()> {
             bus.announce().await?;
             let keys = bus.keys().clone();
             let clock = bus.subscribe(&keys.clock()).await?;
-            let out = bus.publisher(keys.agents("pedestrians"), Lane::Reliable).await?;
+            let out = bus
+                .publisher(keys.agents("pedestrians"), Lane::Reliable)
+                .await?;
             let mut last: Option<f64> = None;
             let run = async {
                 while let Some(c) = bus.next_latest::<Clock>(&clock).await {
@@ -91,13 +99,19 @@ fn run(args: Args) -> Result<()> {
                             id: a.id,
                             root: a.root,
                             kind: match a.kind {
-                                trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => "SimpleCyclistMovement".into(),
+                                trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
+                                    "SimpleCyclistMovement".into()
+                                }
                                 _ => "NPCPedestrian".into(),
                             },
                             footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
                         })
                         .collect();
-                    out.put(&AgentBatch { time: c.time, agents }).await?;
+                    out.put(&AgentBatch {
+                        time: c.time,
+                        agents,
+                    })
+                    .await?;
                 }
                 anyhow::Ok(())
             };

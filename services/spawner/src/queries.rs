@@ -15,7 +15,15 @@ use crate::Spawner;
 pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     let bus = spawner.bus.clone();
     let keys = bus.keys().clone();
-    for command in ["config", "config/set", "config/save", "config/load", "branch_csv", "remove", "restart"] {
+    for command in [
+        "config",
+        "config/set",
+        "config/save",
+        "config/load",
+        "branch_csv",
+        "remove",
+        "restart",
+    ] {
         let queryable = bus.queryable(&keys.spawner(command)).await?;
         let s = spawner.clone();
         tokio::spawn(async move {
@@ -59,7 +67,8 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
             match trafficmesh_maps::save_spawn_config(&s.spawn_config_path, &config) {
                 Ok(()) => {
                     tracing::info!("saved spawn config to {}", s.spawn_config_path.display());
-                    bus.reply(query, &serde_json::json!({ "saved": s.spawn_config_path })).await
+                    bus.reply(query, &serde_json::json!({ "saved": s.spawn_config_path }))
+                        .await
                 }
                 Err(e) => bus.reply_error(query, &e.to_string()).await,
             }
@@ -90,7 +99,10 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 return;
             };
             let key = bus.keys().stepper("remove");
-            match bus.get::<_, RemoveAnswer>(&key, Some(&target), Duration::from_secs(3)).await {
+            match bus
+                .get::<_, RemoveAnswer>(&key, Some(&target), Duration::from_secs(3))
+                .await
+            {
                 Ok(a) => bus.reply(query, &a).await,
                 Err(e) => bus.reply_error(query, &e.to_string()).await,
             }
@@ -101,7 +113,10 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
             };
             s.state().restart(request.max_vehicles);
             let key = bus.keys().stepper("restart");
-            match bus.get::<_, RestartAnswer>(&key, Some(&request), Duration::from_secs(3)).await {
+            match bus
+                .get::<_, RestartAnswer>(&key, Some(&request), Duration::from_secs(3))
+                .await
+            {
                 Ok(a) => {
                     tracing::info!("restarted with max {} vehicles", request.max_vehicles);
                     bus.reply(query, &a).await

@@ -59,9 +59,7 @@ pub async fn run(spawner: Arc<Spawner>) {
             }
         };
         warned = false;
-        let results = spawner
-            .state()
-            .resolve(&requests, &answer.verdicts, c.time);
+        let results = spawner.state().resolve(&requests, &answer.verdicts, c.time);
         for (simulator, tag, id) in results {
             let result = ProposalResult {
                 tag,

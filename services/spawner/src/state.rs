@@ -7,7 +7,9 @@ use std::sync::Arc;
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_model::wire::{ProposalBatch, SpawnBatch, SpawnOrder, SpawnVerdict};
 use trafficmesh_sim::branching::{BranchChoice, BranchStats, SelectionMode};
-use trafficmesh_sim::spawn::{PendingProposal, SharedExternal, SpawnManager, SpawnOutcome, SpawnRequest};
+use trafficmesh_sim::spawn::{
+    PendingProposal, SharedExternal, SpawnManager, SpawnOutcome, SpawnRequest,
+};
 use trafficmesh_sim::{Ego, LaneNetwork};
 
 pub struct SpawnerState {
@@ -64,10 +66,12 @@ impl SpawnerState {
             .map(|r| SpawnOrder {
                 lane: self.net.lane(r.lane).name.clone(),
                 kind: self.net.kinds[r.kind].name.clone(),
-                route: r
-                    .route
-                    .as_ref()
-                    .map(|lanes| lanes.iter().map(|&l| self.net.lane(l).name.clone()).collect()),
+                route: r.route.as_ref().map(|lanes| {
+                    lanes
+                        .iter()
+                        .map(|&l| self.net.lane(l).name.clone())
+                        .collect()
+                }),
             })
             .collect();
         (
@@ -120,19 +124,18 @@ impl SpawnerState {
                 .net
                 .lane_id(&p.lane)
                 .ok_or_else(|| format!("proposal '{}': unknown lane '{}'", p.tag, p.lane))?;
-            let kind = self
-                .net
-                .kind_index(&p.kind)
-                .ok_or_else(|| format!("proposal '{}': unknown vehicle kind '{}'", p.tag, p.kind))?;
+            let kind = self.net.kind_index(&p.kind).ok_or_else(|| {
+                format!("proposal '{}': unknown vehicle kind '{}'", p.tag, p.kind)
+            })?;
             let route = match p.route {
                 None => None,
                 Some(names) => Some(
                     names
                         .iter()
                         .map(|n| {
-                            self.net
-                                .lane_id(n)
-                                .ok_or_else(|| format!("proposal '{}': unknown route lane '{n}'", p.tag))
+                            self.net.lane_id(n).ok_or_else(|| {
+                                format!("proposal '{}': unknown route lane '{n}'", p.tag)
+                            })
                         })
                         .collect::<Result<Arc<[_]>, _>>()?,
                 ),
@@ -171,11 +174,16 @@ impl SpawnerState {
         configured_weight: f64,
         probability: f64,
     ) -> Result<(), String> {
-        let lane = |n: &str| self.net.lane_id(n).ok_or_else(|| format!("unknown lane '{n}'"));
+        let lane = |n: &str| {
+            self.net
+                .lane_id(n)
+                .ok_or_else(|| format!("unknown lane '{n}'"))
+        };
         let choice = BranchChoice {
             from: lane(from)?,
             to: lane(to)?,
-            mode: SelectionMode::parse(mode).ok_or_else(|| format!("unknown selection mode '{mode}'"))?,
+            mode: SelectionMode::parse(mode)
+                .ok_or_else(|| format!("unknown selection mode '{mode}'"))?,
             configured_weight,
             probability,
         };

@@ -66,66 +66,106 @@ pub async fn start(
     let keys = bus.keys().clone();
 
     let n = names.clone();
-    forward(&bus, &keys.light_states(), tx.clone(), move |s: LightState| {
-        if !n.groups.contains(&s.group) {
-            return Err(format!("unknown light group '{}'", s.group));
-        }
-        if !s.valid_until.is_finite() && s.valid_until != f64::INFINITY {
-            return Err("valid_until is not a number".into());
-        }
-        Ok(Command::Light(s))
-    })
+    forward(
+        &bus,
+        &keys.light_states(),
+        tx.clone(),
+        move |s: LightState| {
+            if !n.groups.contains(&s.group) {
+                return Err(format!("unknown light group '{}'", s.group));
+            }
+            if !s.valid_until.is_finite() && s.valid_until != f64::INFINITY {
+                return Err("valid_until is not a number".into());
+            }
+            Ok(Command::Light(s))
+        },
+    )
     .await?;
-    forward(&bus, &keys.lights_heartbeat(), tx.clone(), |b: Heartbeat| {
-        heartbeat_ok(&b)?;
-        Ok(Command::LightsHeartbeat(b))
-    })
+    forward(
+        &bus,
+        &keys.lights_heartbeat(),
+        tx.clone(),
+        |b: Heartbeat| {
+            heartbeat_ok(&b)?;
+            Ok(Command::LightsHeartbeat(b))
+        },
+    )
     .await?;
     let n = names.clone();
-    forward(&bus, &keys.occupancies(), tx.clone(), move |o: CrosswalkOccupancy| {
-        if !n.areas.contains(&o.area) {
-            return Err(format!("unknown crosswalk '{}'", o.area));
+    forward(
+        &bus,
+        &keys.occupancies(),
+        tx.clone(),
+        move |o: CrosswalkOccupancy| {
+            if !n.areas.contains(&o.area) {
+                return Err(format!("unknown crosswalk '{}'", o.area));
+            }
+            Ok(Command::Occupancy(o))
+        },
+    )
+    .await?;
+    forward(
+        &bus,
+        &keys.crosswalks_heartbeat(),
+        tx.clone(),
+        |b: Heartbeat| {
+            heartbeat_ok(&b)?;
+            Ok(Command::CrosswalksHeartbeat(b))
+        },
+    )
+    .await?;
+    forward(&bus, &keys.ego(), tx.clone(), |e: EgoPose| {
+        match e.problem() {
+            Some(p) => Err(p),
+            None => Ok(Command::Ego(e)),
         }
-        Ok(Command::Occupancy(o))
-    })
-    .await?;
-    forward(&bus, &keys.crosswalks_heartbeat(), tx.clone(), |b: Heartbeat| {
-        heartbeat_ok(&b)?;
-        Ok(Command::CrosswalksHeartbeat(b))
-    })
-    .await?;
-    forward(&bus, &keys.ego(), tx.clone(), |e: EgoPose| match e.problem() {
-        Some(p) => Err(p),
-        None => Ok(Command::Ego(e)),
     })
     .await?;
     let lanes: HashSet<String> = net.lanes.iter().map(|l| l.name.to_lowercase()).collect();
     let lanes = Arc::new(lanes);
     let known = lanes.clone();
-    forward(&bus, &keys.spawn_config(), tx.clone(), move |c: TrafficSpawnConfig| {
-        c.validate(|name| known.contains(&name.to_lowercase()))
-            .map_err(|e| e.to_string())?;
-        Ok(Command::SpawnConfig(c))
-    })
+    forward(
+        &bus,
+        &keys.spawn_config(),
+        tx.clone(),
+        move |c: TrafficSpawnConfig| {
+            c.validate(|name| known.contains(&name.to_lowercase()))
+                .map_err(|e| e.to_string())?;
+            Ok(Command::SpawnConfig(c))
+        },
+    )
     .await?;
 
     serve(&bus, &keys.stepper("spawn"), tx.clone(), |b: SpawnBatch| {
         let (send, recv) = oneshot::channel();
-        (Command::Spawn(b, send), answer(async move { recv.await.map(Ok) }))
-    })
-    .await?;
-    serve(&bus, &keys.stepper("remove"), tx.clone(), |t: RemoveTarget| {
-        let (send, recv) = oneshot::channel();
-        (Command::Remove(t, send), answer(recv))
-    })
-    .await?;
-    serve(&bus, &keys.stepper("restart"), tx.clone(), |r: RestartRequest| {
-        let (send, recv) = oneshot::channel();
         (
-            Command::Restart(r.max_vehicles, send),
+            Command::Spawn(b, send),
             answer(async move { recv.await.map(Ok) }),
         )
     })
+    .await?;
+    serve(
+        &bus,
+        &keys.stepper("remove"),
+        tx.clone(),
+        |t: RemoveTarget| {
+            let (send, recv) = oneshot::channel();
+            (Command::Remove(t, send), answer(recv))
+        },
+    )
+    .await?;
+    serve(
+        &bus,
+        &keys.stepper("restart"),
+        tx.clone(),
+        |r: RestartRequest| {
+            let (send, recv) = oneshot::channel();
+            (
+                Command::Restart(r.max_vehicles, send),
+                answer(async move { recv.await.map(Ok) }),
+            )
+        },
+    )
     .await?;
     Ok(())
 }
@@ -139,7 +179,12 @@ fn heartbeat_ok(b: &Heartbeat) -> Result<(), String> {
 }
 
 /// Subscribes to `key`, turns each good sample into a command.
-async fn forward<T, F>(bus: &Arc<Bus>, key: &str, tx: CommandSender, to_command: F) -> Result<(), BusError>
+async fn forward<T, F>(
+    bus: &Arc<Bus>,
+    key: &str,
+    tx: CommandSender,
+    to_command: F,
+) -> Result<(), BusError>
 where
     T: DeserializeOwned + Send + 'static,
     F: Fn(T) -> Result<Command, String> + Send + 'static,
@@ -210,7 +255,10 @@ where
                         bus.reject(query.key_expr().as_str(), &reason);
                         bus.reply_error(&query, &reason).await;
                     }
-                    Err(_) => bus.reply_error(&query, "stepper did not answer in time").await,
+                    Err(_) => {
+                        bus.reply_error(&query, "stepper did not answer in time")
+                            .await
+                    }
                 }
             });
         }
@@ -228,12 +276,17 @@ pub async fn fetch_late_states(bus: &Bus, tx: &CommandSender) {
             let _ = tx.send(Command::Light(s));
         }
     }
-    if let Ok(states) = bus.get_each::<CrosswalkOccupancy>(&keys.occupancies(), wait).await {
+    if let Ok(states) = bus
+        .get_each::<CrosswalkOccupancy>(&keys.occupancies(), wait)
+        .await
+    {
         for o in states {
             let _ = tx.send(Command::Occupancy(o));
         }
     }
-    if let Ok(mut configs) = bus.get_each::<TrafficSpawnConfig>(&keys.spawn_config(), wait).await
+    if let Ok(mut configs) = bus
+        .get_each::<TrafficSpawnConfig>(&keys.spawn_config(), wait)
+        .await
         && let Some(c) = configs.pop()
     {
         let _ = tx.send(Command::SpawnConfig(c));

@@ -67,7 +67,10 @@ fn run(args: Args) -> Result<()> {
         bail!("--dt must be in (0, 1] seconds, got {}", args.dt);
     }
     if !(args.speed.is_finite() && args.speed >= 0.0) {
-        bail!("--speed must be 0 (as fast as possible) or a positive factor, got {}", args.speed);
+        bail!(
+            "--speed must be 0 (as fast as possible) or a positive factor, got {}",
+            args.speed
+        );
     }
     if let Some(d) = args.duration
         && !(d.is_finite() && d > 0.0)
@@ -106,10 +109,7 @@ fn run(args: Args) -> Result<()> {
         inputs::start(bus.clone(), world.network(), tx.clone(), shared.clone()).await?;
         let outputs = telemetry::start(bus.clone(), world.network()).await?;
         let status = shared.clone();
-        trafficmesh_bus::serve_status(
-            bus.clone(),
-            Arc::new(move || status.status()),
-        );
+        trafficmesh_bus::serve_status(bus.clone(), Arc::new(move || status.status()));
         inputs::fetch_late_states(&bus, &tx).await;
         let pacing = tick_loop::Pacing {
             speed: args.speed,

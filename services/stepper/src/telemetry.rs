@@ -38,7 +38,9 @@ impl Outputs {
         let net = world.network();
         while self.kind_codes.len() < net.kinds.len() {
             let name = &net.kinds[self.kind_codes.len()].name;
-            let code = builtin_names().position(|n| n == name).unwrap_or(u16::MAX as usize);
+            let code = builtin_names()
+                .position(|n| n == name)
+                .unwrap_or(u16::MAX as usize);
             self.kind_codes.push(code as u16);
         }
         world
@@ -79,7 +81,9 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
     events
         .into_iter()
         .map(|e| match e {
-            SimEvent::Spawned { id, kind, lane: l, .. } => Event::Spawned {
+            SimEvent::Spawned {
+                id, kind, lane: l, ..
+            } => Event::Spawned {
                 id,
                 kind,
                 lane: lane(l),
@@ -131,10 +135,16 @@ pub async fn start(bus: Arc<Bus>, _net: &LaneNetwork) -> Result<Outputs, BusErro
     let keys = bus.keys();
     let clock = bus.publisher(keys.clock(), Lane::Telemetry).await?;
     let vehicles = bus.publisher(keys.vehicles(), Lane::Telemetry).await?;
-    let events = bus.publisher(keys.events(), Lane::Reliable).await?;
+    // Events too are dropped for a subscriber that cannot keep up: a stalled
+    // subscriber must never stall the stepper's publications (the clock
+    // included, which the lights and crosswalks heartbeats follow).
+    let events = bus.publisher(keys.events(), Lane::Telemetry).await?;
     let (queue, mut rx) = mpsc::channel::<TickOutput>(2);
     tokio::spawn(async move {
         while let Some(out) = rx.recv().await {
+            if let Err(e) = clock.put(&out.clock).await {
+                tracing::warn!("cannot publish the clock: {e}");
+            }
             let batch = VehicleBatch {
                 tick: out.clock.tick,
                 time: out.clock.time,
@@ -154,9 +164,6 @@ pub async fn start(bus: Arc<Bus>, _net: &LaneNetwork) -> Result<Outputs, BusErro
                 if let Err(e) = events.put(&batch).await {
                     tracing::warn!("cannot publish events: {e}");
                 }
-            }
-            if let Err(e) = clock.put(&out.clock).await {
-                tracing::warn!("cannot publish the clock: {e}");
             }
         }
     });

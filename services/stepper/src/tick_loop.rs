@@ -45,7 +45,20 @@ pub fn run(
                 Err(TryRecvError::Disconnected) => return,
             }
         }
-        world.set_crosswalks_stale(world.time() > inputs.crosswalks_valid_until);
+        let stale = world.time() > inputs.crosswalks_valid_until;
+        if stale != world.occupancy().is_stale() {
+            tracing::info!(
+                "crosswalk states {} at t={:.2} (valid until {:.2})",
+                if stale {
+                    "went stale: every crosswalk counts as blocked"
+                } else {
+                    "are fresh again"
+                },
+                world.time(),
+                inputs.crosswalks_valid_until
+            );
+        }
+        world.set_crosswalks_stale(stale);
         let t0 = Instant::now();
         world.step();
         let tick_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -56,7 +69,9 @@ pub fn run(
             match e {
                 Event::Spawned { .. } => spawned += 1,
                 Event::Despawned { .. } => despawned += 1,
-                Event::ZebraStop { .. } | Event::ZebraClear { .. } | Event::BranchDecision { .. } => {}
+                Event::ZebraStop { .. }
+                | Event::ZebraClear { .. }
+                | Event::BranchDecision { .. } => {}
             }
         }
         rate_window.1 += 1;

@@ -45,13 +45,7 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
-        .with_writer(std::io::stderr)
-        .with_target(false)
-        .init();
+    trafficmesh_bus::runtime::init_logging();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Sim(args) => commands::sim::run(args),

@@ -122,6 +122,21 @@ impl Bus {
         Ok(self.session.declare_subscriber(key.to_string()).await?)
     }
 
+    /// A subscription that keeps only the newest `capacity` samples and never
+    /// holds up the session when its reader falls behind.
+    pub async fn subscribe_ring(
+        &self,
+        key: &str,
+        capacity: usize,
+    ) -> Result<zenoh::pubsub::Subscriber<zenoh::handlers::RingChannelHandler<Sample>>, BusError>
+    {
+        Ok(self
+            .session
+            .declare_subscriber(key.to_string())
+            .with(zenoh::handlers::RingChannel::new(capacity))
+            .await?)
+    }
+
     pub async fn queryable(
         &self,
         key: &str,

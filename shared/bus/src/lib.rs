@@ -5,8 +5,8 @@
 
 mod bus;
 mod keys;
-mod session;
 pub mod runtime;
+mod session;
 mod status;
 
 pub use bus::{Bus, JsonPublisher, Lane};

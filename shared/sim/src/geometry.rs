@@ -242,11 +242,14 @@ pub fn polygons_overlap(a: &[DVec2], b: &[DVec2]) -> bool {
     }
     let edges = |poly: &[DVec2]| {
         let n = poly.len();
-        (0..n).map(move |i| (poly[i], poly[(i + 1) % n])).collect::<Vec<_>>()
+        (0..n)
+            .map(move |i| (poly[i], poly[(i + 1) % n]))
+            .collect::<Vec<_>>()
     };
     let (ea, eb) = (edges(a), edges(b));
-    ea.iter()
-        .any(|&(a1, a2)| eb.iter().any(|&(b1, b2)| segments_intersect(a1, a2, b1, b2)))
-        || point_in_polygon(a[0], b)
+    ea.iter().any(|&(a1, a2)| {
+        eb.iter()
+            .any(|&(b1, b2)| segments_intersect(a1, a2, b1, b2))
+    }) || point_in_polygon(a[0], b)
         || point_in_polygon(b[0], a)
 }

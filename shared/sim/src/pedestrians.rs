@@ -76,7 +76,11 @@ impl Pedestrians {
             while self.next_start[area] <= t {
                 let cyclist = self.rng.unit() < self.config.cyclist_share;
                 let (a, b) = self.lines[area];
-                let (from, to) = if self.rng.unit() < 0.5 { (a, b) } else { (b, a) };
+                let (from, to) = if self.rng.unit() < 0.5 {
+                    (a, b)
+                } else {
+                    (b, a)
+                };
                 self.walkers.push(Walker {
                     id: self.next_id,
                     cyclist,
@@ -96,8 +100,7 @@ impl Pedestrians {
         for w in &mut self.walkers {
             w.travelled += w.speed * dt;
         }
-        self.walkers
-            .retain(|w| w.travelled < w.from.distance(w.to));
+        self.walkers.retain(|w| w.travelled < w.from.distance(w.to));
     }
 
     pub fn count(&self) -> usize {
@@ -114,9 +117,17 @@ impl Pedestrians {
                 let at = w.from + dir * w.travelled;
                 let yaw = dir.y.atan2(dir.x);
                 let (root, kind, half_length) = if w.cyclist {
-                    (format!("Cyclist_{}", w.id), OccupantType::SimpleCyclistMovement, 0.9)
+                    (
+                        format!("Cyclist_{}", w.id),
+                        OccupantType::SimpleCyclistMovement,
+                        0.9,
+                    )
                 } else {
-                    (format!("Pedestrian_{}", w.id), OccupantType::NpcPedestrian, 0.3)
+                    (
+                        format!("Pedestrian_{}", w.id),
+                        OccupantType::NpcPedestrian,
+                        0.3,
+                    )
                 };
                 AgentPose {
                     id: format!("{}", w.id),
@@ -149,11 +160,10 @@ fn crossing_line(polygon: &[DVec2]) -> (DVec2, DVec2) {
     let (lo, hi) = polygon
         .iter()
         .map(|p| (*p - centroid).dot(axis))
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| (lo.min(v), hi.max(v)));
-    (
-        centroid + axis * (lo - 1.0),
-        centroid + axis * (hi + 1.0),
-    )
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
+    (centroid + axis * (lo - 1.0), centroid + axis * (hi + 1.0))
 }
 
 #[cfg(test)]

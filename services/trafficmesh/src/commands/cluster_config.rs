@@ -41,7 +41,11 @@ pub struct StepperSection {
 }
 impl Default for StepperSection {
     fn default() -> Self {
-        StepperSection { dt: 0.02, speed: 1.0, populate: 0 }
+        StepperSection {
+            dt: 0.02,
+            speed: 1.0,
+            populate: 0,
+        }
     }
 }
 
@@ -82,7 +86,11 @@ pub struct PedestriansSection {
 }
 impl Default for PedestriansSection {
     fn default() -> Self {
-        PedestriansSection { enabled: true, per_minute: 2.0, cyclist_share: 0.2 }
+        PedestriansSection {
+            enabled: true,
+            per_minute: 2.0,
+            cyclist_share: 0.2,
+        }
     }
 }
 
@@ -94,7 +102,10 @@ pub struct RestartSection {
 }
 impl Default for RestartSection {
     fn default() -> Self {
-        RestartSection { initial_backoff_ms: 250, max_backoff_ms: 8000 }
+        RestartSection {
+            initial_backoff_ms: 250,
+            max_backoff_ms: 8000,
+        }
     }
 }
 
@@ -180,7 +191,10 @@ impl ClusterConfig {
             ),
             (
                 "crosswalks",
-                member(vec!["--validity".into(), self.crosswalks.validity.to_string()]),
+                member(vec![
+                    "--validity".into(),
+                    self.crosswalks.validity.to_string(),
+                ]),
             ),
         ];
         if self.pedestrians.enabled {

@@ -25,7 +25,15 @@ pub struct EgoArgs {
 }
 
 pub fn run(a: EgoArgs) -> Result<()> {
-    let pose = EgoPose { x: a.x, y: a.y, z: 0.0, yaw: a.yaw, length: 4.9, width: 1.9, front_offset: 3.8 };
+    let pose = EgoPose {
+        x: a.x,
+        y: a.y,
+        z: 0.0,
+        yaw: a.yaw,
+        length: 4.9,
+        width: 1.9,
+        front_offset: 3.8,
+    };
     if let Some(p) = pose.problem() {
         bail!("{p}");
     }
@@ -47,7 +55,10 @@ pub fn run(a: EgoArgs) -> Result<()> {
             let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
             while !publisher.has_subscribers().await {
                 if tokio::time::Instant::now() > deadline {
-                    bail!("nobody subscribes to {} (is the cluster running?)", publisher.key());
+                    bail!(
+                        "nobody subscribes to {} (is the cluster running?)",
+                        publisher.key()
+                    );
                 }
                 tokio::time::sleep(Duration::from_millis(20)).await;
             }

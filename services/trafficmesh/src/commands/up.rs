@@ -97,7 +97,11 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
         "starting cluster '{}' on {} with {}",
         config.cluster,
         config.endpoint,
-        services.iter().map(|s| s.name).collect::<Vec<_>>().join(", ")
+        services
+            .iter()
+            .map(|s| s.name)
+            .collect::<Vec<_>>()
+            .join(", ")
     );
     let stop = crate::commands::shutdown_signal();
     tokio::pin!(stop);
@@ -177,7 +181,11 @@ fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Durati
     }
 }
 
-fn start(name: &'static str, flags: &[String], lines: &mpsc::UnboundedSender<String>) -> Result<Child> {
+fn start(
+    name: &'static str,
+    flags: &[String],
+    lines: &mpsc::UnboundedSender<String>,
+) -> Result<Child> {
     let binary = service_binary(name);
     let mut child = Command::new(&binary)
         .args(flags)
@@ -193,7 +201,11 @@ fn start(name: &'static str, flags: &[String], lines: &mpsc::UnboundedSender<Str
 }
 
 /// Copies a child's output line by line with the service's name in front.
-fn forward(name: &'static str, out: impl AsyncRead + Unpin + Send + 'static, lines: mpsc::UnboundedSender<String>) {
+fn forward(
+    name: &'static str,
+    out: impl AsyncRead + Unpin + Send + 'static,
+    lines: mpsc::UnboundedSender<String>,
+) {
     tokio::spawn(async move {
         let mut reader = BufReader::new(out).lines();
         while let Ok(Some(line)) = reader.next_line().await {

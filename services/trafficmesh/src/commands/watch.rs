@@ -65,7 +65,13 @@ pub fn run(a: WatchArgs) -> Result<()> {
 
 async fn services(bus: &Bus, keys: &Keys) -> Vec<String> {
     let mut names = Vec::new();
-    if let Ok(replies) = bus.session().liveliness().get(keys.all_alive()).timeout(Duration::from_millis(300)).await {
+    if let Ok(replies) = bus
+        .session()
+        .liveliness()
+        .get(keys.all_alive())
+        .timeout(Duration::from_millis(300))
+        .await
+    {
         while let Ok(r) = replies.recv_async().await {
             if let Ok(s) = r.result() {
                 names.push(Keys::last_chunk(s.key_expr().as_str()).to_string());
@@ -103,6 +109,10 @@ fn line(
         busy.len(),
         occupied.len(),
         busy,
-        if alive.is_empty() { "-".to_string() } else { alive.join(",") }
+        if alive.is_empty() {
+            "-".to_string()
+        } else {
+            alive.join(",")
+        }
     )
 }

@@ -42,12 +42,18 @@ impl TrafficSimulator for ExternalSimulator {
 
     fn propose(&mut self, _net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
         self.pending.retain(Option::is_some);
-        out.extend(self.pending.iter().flatten().enumerate().map(|(slot, p)| SpawnProposal {
-            lane: p.lane,
-            kind: p.kind,
-            route: p.route.clone(),
-            slot,
-        }));
+        out.extend(
+            self.pending
+                .iter()
+                .flatten()
+                .enumerate()
+                .map(|(slot, p)| SpawnProposal {
+                    lane: p.lane,
+                    kind: p.kind,
+                    route: p.route.clone(),
+                    slot,
+                }),
+        );
     }
 
     fn spawned(&mut self, slot: usize) {

@@ -1,0 +1,238 @@
+//! A real cluster per test: `trafficmesh up` with its own cluster name, port
+//! and files, and a Zenoh client session that talks to it like any user's.
+
+use std::io::Read;
+use std::net::TcpListener;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+use trafficmesh_bus::{Bus, BusArgs, Role};
+use trafficmesh_model::wire::{ServiceStatus, VehicleBatch};
+
+pub fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+pub fn four_way() -> PathBuf {
+    repo().join("configs/maps/four_way.map.json")
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+pub struct Cluster {
+    pub name: String,
+    pub endpoint: String,
+    pub dir: tempfile::TempDir,
+    child: Child,
+    log: PathBuf,
+}
+
+impl Cluster {
+    /// Starts `trafficmesh up` with the four-way map; `extra` is appended to
+    /// the generated cluster.toml (sections override the defaults below).
+    pub fn start(test: &str, spawner: &str, pedestrians: bool, stepper_speed: f64) -> Cluster {
+        Self::start_with_backoff(test, spawner, pedestrians, stepper_speed, 200)
+    }
+
+    /// As `start`, with `up`'s first restart delay for a dead service.
+    pub fn start_with_backoff(
+        test: &str,
+        spawner: &str,
+        pedestrians: bool,
+        stepper_speed: f64,
+        backoff_ms: u64,
+    ) -> Cluster {
+        let dir = tempfile::tempdir().unwrap();
+        let name = format!("t{}_{test}", std::process::id());
+        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        let config = format!(
+            r#"cluster = "{name}"
+map = "{map}"
+endpoint = "{endpoint}"
+seed = 7
+[stepper]
+speed = {stepper_speed}
+[spawner]
+spawn_config = "{dir}/traffic_spawn.json"
+branch_csv = "{dir}/traffic_branch_decisions.csv"
+{spawner}
+[pedestrians]
+enabled = {pedestrians}
+[restart]
+initial_backoff_ms = {backoff_ms}
+max_backoff_ms = {backoff_ms}
+"#,
+            map = four_way().display(),
+            dir = dir.path().display(),
+        );
+        let path = dir.path().join("cluster.toml");
+        std::fs::write(&path, config).unwrap();
+        let log = dir.path().join("up.log");
+        let child = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+            .args(["up", "--config"])
+            .arg(&path)
+            .env("RUST_LOG", "info,zenoh=warn")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap())
+            .spawn()
+            .unwrap();
+        Cluster {
+            name,
+            endpoint,
+            dir,
+            child,
+            log,
+        }
+    }
+
+    pub fn bus_args(&self) -> BusArgs {
+        BusArgs {
+            cluster: self.name.clone(),
+            zenoh_config: None,
+            mode: None,
+            connect: vec![self.endpoint.clone()],
+            listen: vec!["tcp/127.0.0.1:0".into()],
+        }
+    }
+
+    pub async fn client(&self) -> Bus {
+        let bus = Bus::open(&self.bus_args(), Role::Member, "test")
+            .await
+            .unwrap();
+        assert!(
+            bus.wait_for_peer(Duration::from_secs(10)).await,
+            "no peer: is the cluster up?"
+        );
+        bus
+    }
+
+    /// The cluster's combined log so far.
+    pub fn log(&self) -> String {
+        let mut s = String::new();
+        std::fs::File::open(&self.log)
+            .unwrap()
+            .read_to_string(&mut s)
+            .unwrap();
+        s
+    }
+
+    /// Waits until the log contains `needle`.
+    pub async fn wait_log(&self, needle: &str, timeout: Duration) -> bool {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if self.log().contains(needle) {
+                return true;
+            }
+            tokio::time::sleep(Duration::from_millis(100)).await;
+        }
+        false
+    }
+
+    pub fn stop(&mut self) {
+        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
+        let deadline = Instant::now() + Duration::from_secs(15);
+        while Instant::now() < deadline {
+            if let Ok(Some(_)) = self.child.try_wait() {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        let _ = self.child.kill();
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        self.stop();
+        if std::thread::panicking() {
+            eprintln!("---- cluster log ----\n{}", self.log());
+        }
+    }
+}
+
+/// A service's status, once it answers.
+pub async fn status(bus: &Bus, service: &str) -> ServiceStatus {
+    let key = bus.keys().status(service);
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        match bus
+            .get::<(), ServiceStatus>(&key, None, Duration::from_secs(1))
+            .await
+        {
+            Ok(s) => return s,
+            Err(e) if Instant::now() > deadline => panic!("{service} status: {e}"),
+            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+        }
+    }
+}
+
+/// A query that retries while the service is still starting.
+pub async fn ask<Q: Serialize, R: DeserializeOwned>(bus: &Bus, key: &str, q: &Q) -> R {
+    let deadline = Instant::now() + Duration::from_secs(20);
+    loop {
+        match bus.get::<Q, R>(key, Some(q), Duration::from_secs(2)).await {
+            Ok(r) => return r,
+            Err(e) if Instant::now() > deadline => panic!("{key}: {e}"),
+            Err(_) => tokio::time::sleep(Duration::from_millis(100)).await,
+        }
+    }
+}
+
+/// Vehicle batches as they arrive.
+pub struct Batches {
+    sub: zenoh::pubsub::Subscriber<zenoh::handlers::RingChannelHandler<zenoh::sample::Sample>>,
+}
+
+impl Batches {
+    pub async fn new(bus: &Bus) -> Batches {
+        Batches {
+            sub: bus.subscribe_ring(&bus.keys().vehicles(), 1).await.unwrap(),
+        }
+    }
+
+    /// The newest batch (waits for one).
+    pub async fn latest(&self) -> VehicleBatch {
+        let mut sample = tokio::time::timeout(Duration::from_secs(10), self.sub.recv_async())
+            .await
+            .expect("no vehicle batch within 10 s")
+            .unwrap();
+        while let Ok(Some(s)) = self.sub.try_recv() {
+            sample = s;
+        }
+        serde_json::from_slice(&sample.payload().to_bytes()).expect("batch decodes")
+    }
+
+    /// Waits until `pred` holds for a batch; returns it.
+    pub async fn until(
+        &self,
+        timeout: Duration,
+        what: &str,
+        pred: impl Fn(&VehicleBatch) -> bool,
+    ) -> VehicleBatch {
+        let deadline = Instant::now() + timeout;
+        loop {
+            let b = self.latest().await;
+            if pred(&b) {
+                return b;
+            }
+            assert!(Instant::now() < deadline, "timed out waiting for: {what}");
+        }
+    }
+}
+
+pub fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .unwrap()
+}
