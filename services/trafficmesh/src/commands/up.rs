@@ -194,7 +194,12 @@ fn start(
         .stderr(Stdio::piped())
         .kill_on_drop(true)
         .spawn()
-        .with_context(|| format!("cannot run {}", binary.display()))?;
+        .with_context(|| {
+            format!(
+                "cannot run {} (build every service with `cargo build --release --workspace --bins`)",
+                binary.display()
+            )
+        })?;
     forward(name, child.stdout.take().expect("piped"), lines.clone());
     forward(name, child.stderr.take().expect("piped"), lines.clone());
     Ok(child)
