@@ -16,6 +16,8 @@ use crate::output::print_summary;
 pub enum BenchCommand {
     /// Step a generated grid filled with N vehicles and report the tick cost.
     Tick(TickArgs),
+    /// Run the whole cluster with N vehicles; tick rate, tick time, batch latency.
+    Cluster(super::bench_cluster::ClusterArgs),
 }
 
 #[derive(Args)]
@@ -69,7 +71,10 @@ fn resident_bytes() -> u64 {
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
-    let BenchCommand::Tick(a) = cmd;
+    let a = match cmd {
+        BenchCommand::Tick(a) => a,
+        BenchCommand::Cluster(a) => return super::bench_cluster::run(a),
+    };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");
     }

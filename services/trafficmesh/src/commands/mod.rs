@@ -1,4 +1,5 @@
 pub mod bench;
+pub mod bench_cluster;
 pub mod cluster_config;
 pub mod ego;
 pub mod gen_grid;

@@ -1,0 +1,212 @@
+//! `trafficmesh bench cluster`: the whole cluster on this machine (via `up`)
+//! with N vehicles on a generated grid, measured from another process over
+//! Zenoh: tick rate, tick duration, and latency from the stepper's
+//! publication of a batch to its arrival here; plus what encoding a batch costs.
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use serde::Serialize;
+use trafficmesh_bus::{Bus, BusArgs, Role};
+use trafficmesh_maps::GridOptions;
+use trafficmesh_model::wire::{Clock, VehicleBatch};
+
+#[derive(Args)]
+pub struct ClusterArgs {
+    /// Vehicles placed at start (the spawner keeps the count up).
+    #[arg(long, default_value_t = 10_000)]
+    vehicles: usize,
+    /// Wall seconds measured, after the warm-up.
+    #[arg(long, default_value_t = 20.0)]
+    duration: f64,
+    /// Grid size (junctions per side).
+    #[arg(long, default_value_t = 40)]
+    size: usize,
+    /// Print one JSON object.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Serialize)]
+struct Report {
+    vehicles: usize,
+    seconds: f64,
+    ticks_per_sec: f64,
+    real_time: bool,
+    tick_p50_ms: f64,
+    tick_p99_ms: f64,
+    batches_received: usize,
+    batches_per_sec: f64,
+    batch_latency_p50_ms: f64,
+    batch_latency_p99_ms: f64,
+    batch_bytes: usize,
+    json_encode_ms: f64,
+    json_decode_ms: f64,
+}
+
+fn pct(v: &mut [f64], q: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+fn unix_us() -> u64 {
+    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_micros() as u64).unwrap_or(0)
+}
+
+pub fn run(a: ClusterArgs) -> Result<()> {
+    if a.size == 0 || a.vehicles == 0 || !(a.duration.is_finite() && a.duration > 0.0) {
+        bail!("--size, --vehicles and --duration must be positive");
+    }
+    let dir = tempfile_dir()?;
+    let map = dir.join("grid.map.json");
+    let grid = trafficmesh_maps::grid_map(&GridOptions { size: a.size, ..GridOptions::default() });
+    trafficmesh_maps::write_atomic(&map, serde_json::to_string(&grid)?.as_bytes())?;
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let cluster = format!("bench{}", std::process::id());
+    let endpoint = format!("tcp/127.0.0.1:{port}");
+    let config = dir.join("cluster.toml");
+    std::fs::write(
+        &config,
+        format!(
+            "cluster = \"{cluster}\"\nmap = \"{}\"\nendpoint = \"{endpoint}\"\n[stepper]\npopulate = {}\n[spawner]\nmax_vehicles = {}\nspawn_config = \"{}\"\nbranch_csv = \"{}\"\n[pedestrians]\nenabled = false\n",
+            map.display(),
+            a.vehicles,
+            a.vehicles,
+            dir.join("spawn.json").display(),
+            dir.join("branch.csv").display()
+        ),
+    )?;
+    let log = dir.join("up.log");
+    let mut up = Command::new(std::env::current_exe()?)
+        .args(["up", "--config"])
+        .arg(&config)
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(&log)?)
+        .spawn()
+        .context("cannot start `trafficmesh up`")?;
+    let result = measure(&a, &cluster, &endpoint);
+    unsafe { libc::kill(up.id() as i32, libc::SIGTERM) };
+    let _ = up.wait();
+    let report = result.with_context(|| format!("cluster log: {}", log.display()))?;
+    let _ = std::fs::remove_dir_all(&dir);
+    if a.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        println!(
+            "{} vehicles, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes, JSON encode {:.2} ms, decode {:.2} ms",
+            report.vehicles, report.seconds, report.ticks_per_sec,
+            if report.real_time { "real time" } else { "NOT real time" },
+            report.tick_p50_ms, report.tick_p99_ms, report.batches_received, report.batches_per_sec,
+            report.batch_latency_p50_ms, report.batch_latency_p99_ms, report.batch_bytes,
+            report.json_encode_ms, report.json_decode_ms
+        );
+    }
+    Ok(())
+}
+
+fn tempfile_dir() -> Result<std::path::PathBuf> {
+    let dir = std::env::temp_dir().join(format!("trafficmesh-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    Ok(dir)
+}
+
+fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
+    let args = BusArgs {
+        cluster: cluster.into(),
+        zenoh_config: None,
+        mode: None,
+        connect: vec![endpoint.into()],
+        listen: vec!["tcp/127.0.0.1:0".into()],
+    };
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(1)
+        .enable_all()
+        .build()?
+        .block_on(async {
+            let bus = Bus::open(&args, Role::Member, "bench").await?;
+            let keys = bus.keys().clone();
+            let vehicles = bus.subscribe(&keys.vehicles()).await?;
+            let clock = bus.subscribe(&keys.clock()).await?;
+            // Warm-up: the map loaded and the vehicles placed.
+            let warm = Instant::now() + Duration::from_secs(120);
+            loop {
+                if Instant::now() > warm {
+                    bail!("no vehicle batches within 120 s");
+                }
+                if let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await {
+                    let b: VehicleBatch = serde_json::from_slice(&s.payload().to_bytes())?;
+                    if b.vehicles.len() * 10 >= a.vehicles * 9 {
+                        break;
+                    }
+                }
+            }
+            while let Ok(Some(_)) = clock.try_recv() {}
+            while let Ok(Some(_)) = vehicles.try_recv() {}
+            let start = Instant::now();
+            let end = start + Duration::from_secs_f64(a.duration);
+            let (mut latencies, mut ticks_ms) = (Vec::new(), Vec::new());
+            let (mut first_tick, mut last_tick) = (None, 0u64);
+            let mut sample_batch: Option<Vec<u8>> = None;
+            while Instant::now() < end {
+                tokio::select! {
+                    Ok(s) = vehicles.recv_async() => {
+                        let now = unix_us();
+                        let bytes = s.payload().to_bytes();
+                        let b: VehicleBatch = serde_json::from_slice(&bytes)?;
+                        latencies.push(now.saturating_sub(b.sent_unix_us) as f64 / 1e3);
+                        if sample_batch.is_none() { sample_batch = Some(bytes.into_owned()); }
+                    }
+                    Ok(s) = clock.recv_async() => {
+                        if let Ok(c) = serde_json::from_slice::<Clock>(&s.payload().to_bytes()) {
+                            ticks_ms.push(c.tick_ms);
+                            first_tick.get_or_insert(c.tick);
+                            last_tick = c.tick;
+                        }
+                    }
+                    _ = tokio::time::sleep_until(end.into()) => {}
+                }
+            }
+            let seconds = start.elapsed().as_secs_f64();
+            let ticks = last_tick.saturating_sub(first_tick.unwrap_or(last_tick)) as f64;
+            let (encode, decode, bytes) = encoding_cost(sample_batch.as_deref())?;
+            let ticks_per_sec = ticks / seconds;
+            Ok(Report {
+                vehicles: a.vehicles,
+                seconds,
+                ticks_per_sec,
+                real_time: ticks_per_sec >= 49.0,
+                tick_p50_ms: pct(&mut ticks_ms, 0.5),
+                tick_p99_ms: pct(&mut ticks_ms, 0.99),
+                batches_received: latencies.len(),
+                batches_per_sec: latencies.len() as f64 / seconds,
+                batch_latency_p50_ms: pct(&mut latencies, 0.5),
+                batch_latency_p99_ms: pct(&mut latencies, 0.99),
+                batch_bytes: bytes,
+                json_encode_ms: encode,
+                json_decode_ms: decode,
+            })
+        })
+}
+
+/// Median time to encode and decode one batch as JSON, in this process.
+fn encoding_cost(sample: Option<&[u8]>) -> Result<(f64, f64, usize)> {
+    let Some(bytes) = sample else {
+        return Ok((f64::NAN, f64::NAN, 0));
+    };
+    let batch: VehicleBatch = serde_json::from_slice(bytes)?;
+    let (mut enc, mut dec) = (Vec::new(), Vec::new());
+    for _ in 0..20 {
+        let t = Instant::now();
+        let out = serde_json::to_vec(&batch)?;
+        enc.push(t.elapsed().as_secs_f64() * 1e3);
+        let t = Instant::now();
+        let _: VehicleBatch = serde_json::from_slice(&out)?;
+        dec.push(t.elapsed().as_secs_f64() * 1e3);
+    }
+    Ok((pct(&mut enc, 0.5), pct(&mut dec, 0.5), bytes.len()))
+}
