@@ -55,7 +55,10 @@ fn pct(v: &mut [f64], q: f64) -> f64 {
 }
 
 fn unix_us() -> u64 {
-    SystemTime::now().duration_since(UNIX_EPOCH).map(|d| d.as_micros() as u64).unwrap_or(0)
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(0)
 }
 
 pub fn run(a: ClusterArgs) -> Result<()> {
@@ -64,9 +67,14 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     }
     let dir = tempfile_dir()?;
     let map = dir.join("grid.map.json");
-    let grid = trafficmesh_maps::grid_map(&GridOptions { size: a.size, ..GridOptions::default() });
+    let grid = trafficmesh_maps::grid_map(&GridOptions {
+        size: a.size,
+        ..GridOptions::default()
+    });
     trafficmesh_maps::write_atomic(&map, serde_json::to_string(&grid)?.as_bytes())?;
-    let port = std::net::TcpListener::bind("127.0.0.1:0")?.local_addr()?.port();
+    let port = std::net::TcpListener::bind("127.0.0.1:0")?
+        .local_addr()?
+        .port();
     let cluster = format!("bench{}", std::process::id());
     let endpoint = format!("tcp/127.0.0.1:{port}");
     let config = dir.join("cluster.toml");
@@ -99,11 +107,23 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     } else {
         println!(
             "{} vehicles, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes, JSON encode {:.2} ms, decode {:.2} ms",
-            report.vehicles, report.seconds, report.ticks_per_sec,
-            if report.real_time { "real time" } else { "NOT real time" },
-            report.tick_p50_ms, report.tick_p99_ms, report.batches_received, report.batches_per_sec,
-            report.batch_latency_p50_ms, report.batch_latency_p99_ms, report.batch_bytes,
-            report.json_encode_ms, report.json_decode_ms
+            report.vehicles,
+            report.seconds,
+            report.ticks_per_sec,
+            if report.real_time {
+                "real time"
+            } else {
+                "NOT real time"
+            },
+            report.tick_p50_ms,
+            report.tick_p99_ms,
+            report.batches_received,
+            report.batches_per_sec,
+            report.batch_latency_p50_ms,
+            report.batch_latency_p99_ms,
+            report.batch_bytes,
+            report.json_encode_ms,
+            report.json_decode_ms
         );
     }
     Ok(())
@@ -138,7 +158,9 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
                 if Instant::now() > warm {
                     bail!("no vehicle batches within 120 s");
                 }
-                if let Ok(Ok(s)) = tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await {
+                if let Ok(Ok(s)) =
+                    tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await
+                {
                     let b: VehicleBatch = serde_json::from_slice(&s.payload().to_bytes())?;
                     if b.vehicles.len() * 10 >= a.vehicles * 9 {
                         break;
