@@ -67,14 +67,7 @@ impl Spawner {
 }
 
 fn main() -> ExitCode {
-    runtime::init_logging();
-    match run(Args::parse()) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(2)
-        }
-    }
+    runtime::main_with(|| run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<()> {

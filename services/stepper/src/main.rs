@@ -51,15 +51,7 @@ pub struct Args {
 }
 
 fn main() -> ExitCode {
-    runtime::init_logging();
-    let args = Args::parse();
-    match run(args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(2)
-        }
-    }
+    runtime::main_with(|| run(Args::parse()))
 }
 
 fn run(args: Args) -> Result<()> {

@@ -22,3 +22,16 @@ pub async fn shutdown_signal() {
         _ = int.recv() => tracing::info!("SIGINT received, stopping"),
     }
 }
+
+/// A service's `main`: logging, then `run`; an error is printed with its
+/// causes and ends the process with exit code 2 (bad flags, files, config).
+pub fn main_with(run: impl FnOnce() -> anyhow::Result<()>) -> std::process::ExitCode {
+    init_logging();
+    match run() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            std::process::ExitCode::from(2)
+        }
+    }
+}
