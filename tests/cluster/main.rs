@@ -76,12 +76,7 @@ fn a_vehicle_stops_at_red_and_goes_on_green() {
     let junction = box_lanes();
     runtime().block_on(async {
         let bus = cluster.client().await;
-        let batches = Batches::new(&bus).await;
-        batches
-            .until(Duration::from_secs(60), "traffic", |b| {
-                b.vehicles.len() >= 10
-            })
-            .await;
+        let batches = Batches::with_traffic(&bus, 10).await;
         for g in ["J0_0_NS", "J0_0_EW"] {
             assert_eq!(
                 set_light(&bus, g, Some(LightColor::Red)).await.color,
@@ -134,12 +129,7 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
     runtime().block_on(async {
         let bus = cluster.client().await;
         let keys = bus.keys().clone();
-        let batches = Batches::new(&bus).await;
-        batches
-            .until(Duration::from_secs(60), "traffic", |b| {
-                b.vehicles.len() >= 10
-            })
-            .await;
+        let batches = Batches::with_traffic(&bus, 10).await;
         let events = bus.subscribe_ring(&keys.events(), 10_000).await.unwrap();
         // Keep every light green so only the pedestrian stops anyone.
         for g in ["J0_0_NS", "J0_0_EW"] {
@@ -284,11 +274,7 @@ fn remove_vehicles_in_radius_over_the_bus_returns_the_count_and_they_vanish() {
     runtime().block_on(async {
         let bus = cluster.client().await;
         let batches = Batches::new(&bus).await;
-        let before = batches
-            .until(Duration::from_secs(60), "traffic", |b| {
-                b.vehicles.len() >= 8
-            })
-            .await;
+        let before = batches.traffic(8).await;
         let ids: HashSet<u64> = before.vehicles.iter().map(|v| v.id).collect();
         let target = RemoveTarget::Point {
             x: 0.0,
@@ -377,17 +363,12 @@ fn killing_the_lights_stops_traffic_and_a_restart_lets_it_flow() {
 
 #[test]
 fn stale_lights_count_as_red_at_the_stop_line() {
-    // With no lights service at all, nothing may enter the junction.
+    // With the lights service frozen (no states, no heartbeat), nothing may enter the junction.
     let cluster = Cluster::start("nolights", "max_vehicles = 20", false, 4.0);
     let junction = box_lanes();
     runtime().block_on(async {
         let bus = cluster.client().await;
-        let batches = Batches::new(&bus).await;
-        batches
-            .until(Duration::from_secs(60), "traffic", |b| {
-                b.vehicles.len() >= 5
-            })
-            .await;
+        let batches = Batches::with_traffic(&bus, 5).await;
         let pid = status(&bus, "lights").await.pid;
         // Stop the lights for good: SIGSTOP keeps the process, so `up` does not restart it.
         unsafe { libc::kill(pid as i32, libc::SIGSTOP) };

@@ -199,6 +199,21 @@ impl Batches {
         }
     }
 
+    /// Subscribes and waits until at least `vehicles` are on the map.
+    pub async fn with_traffic(bus: &Bus, vehicles: usize) -> Batches {
+        let batches = Batches::new(bus).await;
+        batches.traffic(vehicles).await;
+        batches
+    }
+
+    /// Waits (up to a minute) for a batch with at least `vehicles`.
+    pub async fn traffic(&self, vehicles: usize) -> VehicleBatch {
+        self.until(Duration::from_secs(60), "traffic", |b| {
+            b.vehicles.len() >= vehicles
+        })
+        .await
+    }
+
     /// The newest batch (waits for one).
     pub async fn latest(&self) -> VehicleBatch {
         let mut sample = tokio::time::timeout(Duration::from_secs(10), self.sub.recv_async())

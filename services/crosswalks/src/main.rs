@@ -9,10 +9,10 @@ use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Parser;
 use glam::DVec2;
-use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, is_plain_chunk, runtime};
+use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, runtime};
 use trafficmesh_model::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, Heartbeat,
 };
@@ -81,54 +81,44 @@ fn run(args: Args) -> Result<()> {
     }
     args.bus.keys()?;
     let net = trafficmesh_maps::load_network(&args.map)?;
-    if let Some(c) = net.crosswalks.iter().find(|c| !is_plain_chunk(&c.name)) {
-        bail!(
-            "crosswalk '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces",
-            c.name
-        );
-    }
+    runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
     let occupancy = Occupancy::new(net.crosswalks.len());
+    let agents = AgentOccupancy::new(&net.crosswalks);
     let areas = Arc::new(Mutex::new(Areas {
         net,
         occupancy,
-        agents: AgentOccupancy::default(),
+        agents,
         last_heard: BTreeMap::new(),
         time: 0.0,
     }));
     let validity = args.validity;
     let timeout = Duration::from_secs_f64(args.source_timeout);
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?
-        .block_on(async move {
-            let mut bus = Bus::open(&args.bus, Role::Member, "crosswalks").await?;
-            bus.announce().await?;
-            let bus = Arc::new(bus);
-            let status = areas.clone();
-            trafficmesh_bus::serve_status(
-                bus.clone(),
-                Arc::new(move || {
-                    let a = status.lock().expect("areas lock");
-                    (
-                        a.time,
-                        serde_json::json!({
-                            "areas": a.net.crosswalks.len(),
-                            "occupied": a.occupancy.occupied_areas().len(),
-                            "sources": a.last_heard.len(),
-                        }),
-                    )
-                }),
-            );
-            tokio::spawn(take_agents(bus.clone(), areas.clone(), validity));
-            tokio::spawn(answer_queries(bus.clone(), areas.clone(), validity));
-            tokio::select! {
-                r = follow_clock(bus.clone(), areas.clone(), validity, timeout) => r?,
-                _ = runtime::shutdown_signal() => {}
-            }
-            Ok(())
-        })
+    runtime::tokio_runtime(1)?.block_on(async move {
+        let bus = Bus::open_service(&args.bus, Role::Member, "crosswalks").await?;
+        let bus = Arc::new(bus);
+        let status = areas.clone();
+        trafficmesh_bus::serve_status(
+            bus.clone(),
+            Arc::new(move || {
+                let a = status.lock().expect("areas lock");
+                (
+                    a.time,
+                    serde_json::json!({
+                        "areas": a.net.crosswalks.len(),
+                        "occupied": a.occupancy.occupied_areas().len(),
+                        "sources": a.last_heard.len(),
+                    }),
+                )
+            }),
+        );
+        tokio::spawn(take_agents(bus.clone(), areas.clone(), validity));
+        tokio::spawn(answer_queries(bus.clone(), areas.clone(), validity));
+        tokio::select! {
+            r = follow_clock(bus.clone(), areas.clone(), validity, timeout) => r?,
+            _ = runtime::shutdown_signal() => {}
+        }
+        Ok(())
+    })
 }
 
 async fn publish(bus: &Bus, states: Vec<CrosswalkOccupancy>) {
@@ -193,10 +183,6 @@ async fn follow_clock(
         .await?;
     let mut last_beat = f64::NEG_INFINITY;
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-        if !c.time.is_finite() {
-            bus.reject(&keys.clock(), "time is not a finite number");
-            continue;
-        }
         let changed = {
             let mut guard = areas.lock().expect("areas lock");
             let a = &mut *guard;

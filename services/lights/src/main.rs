@@ -6,9 +6,9 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Lane, Role, is_plain_chunk, runtime};
+use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
 use trafficmesh_model::wire::{Clock, Heartbeat, LightOverride, LightState};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_sim::LaneNetwork;
@@ -67,12 +67,10 @@ fn run(args: Args) -> Result<()> {
     }
     args.bus.keys()?;
     let net = trafficmesh_maps::load_network(&args.map)?;
-    if let Some(g) = net.light_groups.iter().find(|g| !is_plain_chunk(&g.name)) {
-        bail!(
-            "light group '{}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces",
-            g.name
-        );
-    }
+    runtime::check_key_names(
+        "light group",
+        net.light_groups.iter().map(|g| g.name.as_str()),
+    )?;
     let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
     let n = net.light_groups.len();
     let groups = Arc::new(Mutex::new(Groups {
@@ -83,31 +81,25 @@ fn run(args: Args) -> Result<()> {
         last_beat: f64::NEG_INFINITY,
     }));
     let validity = args.validity;
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?
-        .block_on(async move {
-            let mut bus = Bus::open(&args.bus, Role::Member, "lights").await?;
-            bus.announce().await?;
-            let bus = Arc::new(bus);
-            let status = groups.clone();
-            trafficmesh_bus::serve_status(
-                bus.clone(),
-                Arc::new(move || {
-                    let g = status.lock().expect("lights lock");
-                    (g.time, serde_json::json!({ "groups": g.published.len() }))
-                }),
-            );
-            tokio::spawn(answer_states(bus.clone(), groups.clone(), validity));
-            tokio::spawn(take_overrides(bus.clone(), groups.clone(), validity));
-            tokio::select! {
-                r = follow_clock(bus.clone(), groups.clone(), validity) => r?,
-                _ = runtime::shutdown_signal() => {}
-            }
-            Ok(())
-        })
+    runtime::tokio_runtime(1)?.block_on(async move {
+        let bus = Bus::open_service(&args.bus, Role::Member, "lights").await?;
+        let bus = Arc::new(bus);
+        let status = groups.clone();
+        trafficmesh_bus::serve_status(
+            bus.clone(),
+            Arc::new(move || {
+                let g = status.lock().expect("lights lock");
+                (g.time, serde_json::json!({ "groups": g.published.len() }))
+            }),
+        );
+        tokio::spawn(answer_states(bus.clone(), groups.clone(), validity));
+        tokio::spawn(take_overrides(bus.clone(), groups.clone(), validity));
+        tokio::select! {
+            r = follow_clock(bus.clone(), groups.clone(), validity) => r?,
+            _ = runtime::shutdown_signal() => {}
+        }
+        Ok(())
+    })
 }
 
 /// On every clock tick: states that changed, and a heartbeat every validity/4.
@@ -118,10 +110,6 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
         .publisher(keys.lights_heartbeat(), Lane::Reliable)
         .await?;
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-        if !c.time.is_finite() {
-            bus.reject(&keys.clock(), "time is not a finite number");
-            continue;
-        }
         let (changed, beat) = {
             let mut g = groups.lock().expect("lights lock");
             g.time = c.time;

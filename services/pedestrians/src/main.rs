@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
 use trafficmesh_model::wire::{Agent, AgentBatch, Clock};
@@ -59,59 +59,53 @@ fn run(args: Args) -> Result<()> {
         ..PedestrianConfig::default()
     };
     let mut people = Pedestrians::new(&net.crosswalks, config, args.seed);
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?
-        .block_on(async move {
-            let mut bus = Bus::open(&args.bus, Role::Member, "pedestrians").await?;
-            bus.announce().await?;
-            let keys = bus.keys().clone();
-            let clock = bus.subscribe(&keys.clock()).await?;
-            let out = bus
-                .publisher(keys.agents("pedestrians"), Lane::Reliable)
-                .await?;
-            let mut last: Option<f64> = None;
-            let run = async {
-                while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-                    let Some(prev) = last else {
-                        last = Some(c.time);
-                        continue;
-                    };
-                    // Ten updates per simulated second are plenty for walkers.
-                    if !(c.time.is_finite() && c.time - prev >= 0.1) {
-                        continue;
-                    }
-                    people.step(c.time, c.time - prev);
+    runtime::tokio_runtime(1)?.block_on(async move {
+        let bus = Bus::open_service(&args.bus, Role::Member, "pedestrians").await?;
+        let keys = bus.keys().clone();
+        let clock = bus.subscribe(&keys.clock()).await?;
+        let out = bus
+            .publisher(keys.agents("pedestrians"), Lane::Reliable)
+            .await?;
+        let mut last: Option<f64> = None;
+        let run = async {
+            while let Some(c) = bus.next_latest::<Clock>(&clock).await {
+                let Some(prev) = last else {
                     last = Some(c.time);
-                    let agents = people
-                        .agents()
-                        .into_iter()
-                        .map(|a| Agent {
-                            id: a.id,
-                            root: a.root,
-                            kind: match a.kind {
-                                trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
-                                    "SimpleCyclistMovement".into()
-                                }
-                                _ => "NPCPedestrian".into(),
-                            },
-                            footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
-                        })
-                        .collect();
-                    out.put(&AgentBatch {
-                        time: c.time,
-                        agents,
-                    })
-                    .await?;
+                    continue;
+                };
+                // Ten updates per simulated second are plenty for walkers.
+                if !(c.time.is_finite() && c.time - prev >= 0.1) {
+                    continue;
                 }
-                anyhow::Ok(())
-            };
-            tokio::select! {
-                r = run => r?,
-                _ = runtime::shutdown_signal() => {}
+                people.step(c.time, c.time - prev);
+                last = Some(c.time);
+                let agents = people
+                    .agents()
+                    .into_iter()
+                    .map(|a| Agent {
+                        id: a.id,
+                        root: a.root,
+                        kind: match a.kind {
+                            trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
+                                "SimpleCyclistMovement".into()
+                            }
+                            _ => "NPCPedestrian".into(),
+                        },
+                        footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
+                    })
+                    .collect();
+                out.put(&AgentBatch {
+                    time: c.time,
+                    agents,
+                })
+                .await?;
             }
-            Ok(())
-        })
+            anyhow::Ok(())
+        };
+        tokio::select! {
+            r = run => r?,
+            _ = runtime::shutdown_signal() => {}
+        }
+        Ok(())
+    })
 }

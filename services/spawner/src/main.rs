@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
 
@@ -81,14 +81,9 @@ fn run(args: Args) -> Result<()> {
         })?;
         tracing::info!("loaded spawn config {}", args.spawn_config.display());
     }
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?;
+    let rt = runtime::tokio_runtime(2)?;
     rt.block_on(async move {
-        let mut bus = Bus::open(&args.bus, Role::Member, "spawner").await?;
-        bus.announce().await?;
+        let bus = Bus::open_service(&args.bus, Role::Member, "spawner").await?;
         let spawner = Arc::new(Spawner {
             bus: Arc::new(bus),
             state: Mutex::new(state),

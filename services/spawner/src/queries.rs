@@ -56,9 +56,9 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                     bus.reply(query, &config).await;
                 }
                 Err(problems) => {
-                    bus.reject(query.key_expr().as_str(), &problems.join("; "));
-                    let body = serde_json::json!({ "error": "invalid spawn config", "problems": problems });
-                    reply_error_json(query, body).await;
+                    let message = format!("invalid spawn config: {}", problems.join("; "));
+                    bus.reject(query.key_expr().as_str(), &message);
+                    bus.reply_problems(query, &message, &problems).await;
                 }
             }
         }
@@ -85,8 +85,8 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                     bus.reply(query, &config).await;
                 }
                 Err(problems) => {
-                    let body = serde_json::json!({ "error": "cannot load the spawn config", "problems": problems });
-                    reply_error_json(query, body).await;
+                    let message = format!("cannot load the spawn config: {}", problems.join("; "));
+                    bus.reply_problems(query, &message, &problems).await;
                 }
             }
         }
@@ -126,11 +126,4 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
         }
         _ => unreachable!("every declared command is answered"),
     }
-}
-
-async fn reply_error_json(query: &Query, body: serde_json::Value) {
-    let _ = query
-        .reply_err(serde_json::to_vec(&body).expect("json"))
-        .encoding(Encoding::APPLICATION_JSON)
-        .await;
 }

@@ -18,21 +18,7 @@ pub async fn run(spawner: Arc<Spawner>) {
         }
     };
     let mut warned = false;
-    loop {
-        let Ok(mut sample) = clock.recv_async().await else {
-            return;
-        };
-        // Only the newest clock matters; skip any that queued up meanwhile.
-        while let Ok(Some(newer)) = clock.try_recv() {
-            sample = newer;
-        }
-        let Some(c) = bus.decode::<Clock>(&sample) else {
-            continue;
-        };
-        if !c.time.is_finite() {
-            bus.reject(sample.key_expr().as_str(), "time is not a finite number");
-            continue;
-        }
+    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         let (requests, batch) = {
             let mut s = spawner.state();
             s.time = c.time;

@@ -5,7 +5,6 @@ use std::sync::Arc;
 use trafficmesh_bus::{BusError, Keys};
 use trafficmesh_model::wire::{EgoPose, Event, EventBatch, ProposalBatch};
 use trafficmesh_sim::Ego;
-use trafficmesh_sim::vehicle::Pose;
 
 use crate::Spawner;
 
@@ -24,17 +23,7 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
                 s.bus.reject(sample.key_expr().as_str(), &problem);
                 continue;
             }
-            s.state().ego = Some(Ego {
-                pose: Pose {
-                    x: pose.x,
-                    y: pose.y,
-                    z: pose.z,
-                    yaw: pose.yaw,
-                },
-                length: pose.length,
-                width: pose.width,
-                front_offset: pose.front_offset,
-            });
+            s.state().ego = Some(Ego::from(&pose));
         }
     });
 

@@ -1,18 +1,9 @@
-//! The binary's own checks, before it touches the bus: bad flags and bad
-//! files end with a message naming the problem and exit code 2.
-//! (Building this test also makes Cargo build the binary that
-//! `trafficmesh up` and the cluster tests start.)
+//! The binary's own checks of flags and files (see tests/service_cli/checks.rs).
 
-use std::process::Command;
+#[path = "../../../tests/service_cli/checks.rs"]
+mod checks;
 
 const BIN: &str = env!("CARGO_BIN_EXE_trafficmesh-spawner");
-
-fn map() -> String {
-    format!(
-        "{}/../../configs/maps/four_way.map.json",
-        env!("CARGO_MANIFEST_DIR")
-    )
-}
 
 #[test]
 fn a_bad_spawn_config_is_named_with_its_lane_and_exits_2() {
@@ -22,26 +13,16 @@ fn a_bad_spawn_config_is_named_with_its_lane_and_exits_2() {
         r#"{"spawnRates": [{"lane": "no_such_lane", "spawnsPerMinute": 6}], "branchWeights": []}"#,
     )
     .unwrap();
-    let out = Command::new(BIN)
-        .args(["--map", &map(), "--spawn-config"])
-        .arg(&path)
-        .output()
-        .unwrap();
-    std::fs::remove_file(&path).unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        err.contains("no_such_lane") && err.contains("lane"),
-        "{err}"
+    let config = path.display().to_string();
+    checks::exits_2_naming(
+        BIN,
+        &["--map", &checks::four_way(), "--spawn-config", &config],
+        "unknown lane 'no_such_lane'",
     );
+    std::fs::remove_file(&path).unwrap();
 }
 
 #[test]
 fn a_missing_map_is_named_and_exits_2() {
-    let out = Command::new(BIN)
-        .args(["--map", "/nonexistent/x.map.json"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/x.map.json"));
+    checks::a_missing_map_is_named(BIN);
 }

@@ -8,15 +8,14 @@ use tokio::sync::oneshot;
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_model::wire::{
     CrosswalkOccupancy, EgoPose, Heartbeat, LightState, RemoveAnswer, RemoveTarget, RestartAnswer,
-    SpawnAnswer, SpawnBatch, SpawnVerdict,
+    RestartRequest, SpawnAnswer, SpawnBatch, SpawnVerdict,
 };
 use trafficmesh_sim::world::SpawnRejection;
 use trafficmesh_sim::{Ego, World};
 
 pub enum Command {
-    Spawn(SpawnBatch, oneshot::Sender<SpawnAnswer>),
-    Remove(RemoveTarget, oneshot::Sender<Result<RemoveAnswer, String>>),
-    Restart(usize, oneshot::Sender<RestartAnswer>),
+    /// A query; the answer (JSON) or the reason it was refused goes back.
+    Query(Request, oneshot::Sender<Result<serde_json::Value, String>>),
     Ego(EgoPose),
     Light(LightState),
     LightsHeartbeat(Heartbeat),
@@ -26,7 +25,19 @@ pub enum Command {
     Stop,
 }
 
-pub type CommandSender = Sender<Command>;
+pub enum Request {
+    Spawn(SpawnBatch),
+    Remove(RemoveTarget),
+    Restart(RestartRequest),
+}
+
+/// A command and the key it came from (for the bad-payload count).
+pub struct Input {
+    pub key: String,
+    pub command: Command,
+}
+
+pub type InputSender = Sender<Input>;
 
 /// State the tick thread keeps about its inputs between ticks.
 #[derive(Debug)]
@@ -44,37 +55,36 @@ impl Default for InputState {
     }
 }
 
-/// Applies one command; returns false for Stop. Errors are input problems,
-/// reported back to the caller as bad payloads.
+/// Applies one command; returns false for Stop. An error names what is wrong
+/// with the input (unknown group, area or lane, bad numbers); the world is
+/// unchanged then.
 pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Result<bool, String> {
     match command {
         Command::Stop => return Ok(false),
-        Command::Spawn(batch, answer) => {
-            let _ = answer.send(spawn(world, batch));
-        }
-        Command::Remove(target, answer) => {
-            let _ = answer.send(remove(world, target));
-        }
-        Command::Restart(max, answer) => {
-            let disposed = world.vehicles().len();
-            world.restart(max);
-            let _ = answer.send(RestartAnswer {
-                disposed,
-                max_vehicles: max,
-            });
+        Command::Query(request, answer) => {
+            let result = match request {
+                Request::Spawn(batch) => Ok(json(spawn(world, batch))),
+                Request::Remove(target) => remove(world, target).map(json),
+                Request::Restart(r) => {
+                    let disposed = world.vehicles().len();
+                    world.restart(r.max_vehicles);
+                    Ok(json(RestartAnswer {
+                        disposed,
+                        max_vehicles: r.max_vehicles,
+                    }))
+                }
+            };
+            let refused = result.as_ref().err().cloned();
+            let _ = answer.send(result);
+            if let Some(reason) = refused {
+                return Err(reason);
+            }
         }
         Command::Ego(pose) => {
-            world.set_ego(Some(Ego {
-                pose: trafficmesh_sim::vehicle::Pose {
-                    x: pose.x,
-                    y: pose.y,
-                    z: pose.z,
-                    yaw: pose.yaw,
-                },
-                length: pose.length,
-                width: pose.width,
-                front_offset: pose.front_offset,
-            }));
+            if let Some(problem) = pose.problem() {
+                return Err(problem);
+            }
+            world.set_ego(Some(Ego::from(&pose)));
         }
         Command::Light(state) => {
             world
@@ -97,6 +107,10 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
         }
     }
     Ok(true)
+}
+
+fn json<T: serde::Serialize>(value: T) -> serde_json::Value {
+    serde_json::to_value(value).expect("wire types serialise")
 }
 
 /// The final IsSpawnable and max-count check of each order, in order.

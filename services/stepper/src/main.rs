@@ -78,7 +78,9 @@ fn run(args: Args) -> Result<()> {
         max_vehicles: usize::MAX,
         ..WorldConfig::default()
     };
+    // Lights come from the lights service: red until it vouches for them.
     let mut world = World::new(net, config).without_simulators();
+    world.use_remote_lights();
     if args.populate > 0 {
         let placed = trafficmesh_sim::populate::populate(&mut world, args.populate);
         tracing::info!("placed {placed} vehicles");
@@ -87,19 +89,14 @@ fn run(args: Args) -> Result<()> {
         .num_threads(args.threads)
         .build()
         .context("cannot start worker threads")?;
-    let rt = tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(2)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?;
+    let rt = runtime::tokio_runtime(2)?;
     rt.block_on(async move {
-        let mut bus = Bus::open(&args.bus, Role::Hub, "stepper").await?;
-        bus.announce().await?;
+        let bus = Bus::open_service(&args.bus, Role::Hub, "stepper").await?;
         let bus = Arc::new(bus);
         let (tx, rx) = std::sync::mpsc::channel();
         let shared = Arc::new(inputs::Shared::default());
-        inputs::start(bus.clone(), world.network(), tx.clone(), shared.clone()).await?;
-        let outputs = telemetry::start(bus.clone(), world.network()).await?;
+        inputs::start(bus.clone(), tx.clone()).await?;
+        let outputs = telemetry::start(bus.clone()).await?;
         let status = shared.clone();
         trafficmesh_bus::serve_status(bus.clone(), Arc::new(move || status.status()));
         inputs::fetch_late_states(&bus, &tx).await;
@@ -107,13 +104,19 @@ fn run(args: Args) -> Result<()> {
             speed: args.speed,
             duration: args.duration,
         };
+        let tick_bus = bus.clone();
         let handle = std::thread::Builder::new()
             .name("tick".into())
-            .spawn(move || pool.install(|| tick_loop::run(world, rx, outputs, pacing, shared)))
+            .spawn(move || {
+                pool.install(|| tick_loop::run(world, rx, tick_bus, outputs, pacing, shared))
+            })
             .context("cannot start the tick thread")?;
         tokio::select! {
             _ = runtime::shutdown_signal() => {
-                let _ = tx.send(commands::Command::Stop);
+                let _ = tx.send(commands::Input {
+                    key: String::new(),
+                    command: commands::Command::Stop,
+                });
             }
             _ = wait_thread(&handle) => {}
         }

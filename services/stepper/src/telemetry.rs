@@ -4,13 +4,12 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::{SystemTime, UNIX_EPOCH};
 
 use tokio::sync::mpsc;
 use trafficmesh_bus::{Bus, BusError, Lane};
 use trafficmesh_model::catalog::builtin_names;
 use trafficmesh_model::wire::{Clock, Event, EventBatch, VehicleBatch, VehicleState};
-use trafficmesh_sim::{DespawnReason, LaneNetwork, SimEvent, World};
+use trafficmesh_sim::{SimEvent, World};
 
 pub struct TickOutput {
     pub clock: Clock,
@@ -91,7 +90,7 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
             SimEvent::Despawned(t) => Event::Despawned {
                 id: t.id,
                 kind: t.kind,
-                reason: reason(t.reason).into(),
+                reason: t.reason.as_str().into(),
                 spawn_time: t.spawn_time,
                 distance: t.distance,
                 stops: t.stops,
@@ -120,18 +119,7 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
         .collect()
 }
 
-fn reason(r: DespawnReason) -> &'static str {
-    r.as_str()
-}
-
-pub fn unix_micros() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_micros() as u64)
-        .unwrap_or(0)
-}
-
-pub async fn start(bus: Arc<Bus>, _net: &LaneNetwork) -> Result<Outputs, BusError> {
+pub async fn start(bus: Arc<Bus>) -> Result<Outputs, BusError> {
     let keys = bus.keys();
     let clock = bus.publisher(keys.clock(), Lane::Telemetry).await?;
     let vehicles = bus.publisher(keys.vehicles(), Lane::Telemetry).await?;
@@ -148,7 +136,7 @@ pub async fn start(bus: Arc<Bus>, _net: &LaneNetwork) -> Result<Outputs, BusErro
             let batch = VehicleBatch {
                 tick: out.clock.tick,
                 time: out.clock.time,
-                sent_unix_us: unix_micros(),
+                sent_unix_us: trafficmesh_bus::runtime::unix_micros(),
                 vehicles: out.vehicles,
             };
             let bytes = serde_json::to_vec(&batch).expect("wire types serialise");

@@ -9,7 +9,9 @@ use std::time::{Duration, Instant};
 use trafficmesh_model::wire::{Clock, Event};
 use trafficmesh_sim::World;
 
-use crate::commands::{self, Command, InputState};
+use trafficmesh_bus::Bus;
+
+use crate::commands::{self, Input, InputState};
 use crate::inputs::Shared;
 use crate::telemetry::{Outputs, TickOutput, wire_events};
 
@@ -21,7 +23,8 @@ pub struct Pacing {
 
 pub fn run(
     mut world: World,
-    commands: Receiver<Command>,
+    inputs_rx: Receiver<Input>,
+    bus: Arc<Bus>,
     mut outputs: Outputs,
     pacing: Pacing,
     shared: Arc<Shared>,
@@ -35,11 +38,11 @@ pub fn run(
     loop {
         // Everything that arrived since the last tick, in arrival order.
         loop {
-            match commands.try_recv() {
-                Ok(c) => match commands::apply(&mut world, &mut inputs, c) {
+            match inputs_rx.try_recv() {
+                Ok(input) => match commands::apply(&mut world, &mut inputs, input.command) {
                     Ok(true) => {}
                     Ok(false) => return,
-                    Err(e) => tracing::warn!("input refused: {e}"),
+                    Err(reason) => bus.reject(&input.key, &reason),
                 },
                 Err(TryRecvError::Empty) => break,
                 Err(TryRecvError::Disconnected) => return,

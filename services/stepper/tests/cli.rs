@@ -1,39 +1,16 @@
-//! The binary's own checks, before it touches the bus: bad flags and bad
-//! files end with a message naming the problem and exit code 2.
-//! (Building this test also makes Cargo build the binary that
-//! `trafficmesh up` and the cluster tests start.)
+//! The binary's own checks of flags and files (see tests/service_cli/checks.rs).
 
-use std::process::Command;
+#[path = "../../../tests/service_cli/checks.rs"]
+mod checks;
 
 const BIN: &str = env!("CARGO_BIN_EXE_trafficmesh-stepper");
 
-fn map() -> String {
-    format!(
-        "{}/../../configs/maps/four_way.map.json",
-        env!("CARGO_MANIFEST_DIR")
-    )
-}
-
 #[test]
 fn a_bad_flag_is_named_and_exits_2() {
-    let out = Command::new(BIN)
-        .args(["--map", &map(), "--dt", "0"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(
-        String::from_utf8_lossy(&out.stderr).contains("--dt"),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    checks::exits_2_naming(BIN, &["--map", &checks::four_way(), "--dt", "0"], "--dt");
 }
 
 #[test]
 fn a_missing_map_is_named_and_exits_2() {
-    let out = Command::new(BIN)
-        .args(["--map", "/nonexistent/x.map.json"])
-        .output()
-        .unwrap();
-    assert_eq!(out.status.code(), Some(2));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("/nonexistent/x.map.json"));
+    checks::a_missing_map_is_named(BIN);
 }

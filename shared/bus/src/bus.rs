@@ -33,8 +33,7 @@ pub struct Bus {
 }
 
 impl Bus {
-    /// Opens the session and, for a service, declares its liveliness token
-    /// `<cluster>/alive/<service>`.
+    /// Opens a session (a client command's; services use `open_service`).
     pub async fn open(args: &BusArgs, role: Role, service: &str) -> Result<Bus, BusError> {
         let keys = args.keys()?;
         let config = args.zenoh_config(role)?;
@@ -48,15 +47,17 @@ impl Bus {
         })
     }
 
-    /// Declares the liveliness token that tells the cluster this service is up.
-    pub async fn announce(&mut self) -> Result<(), BusError> {
-        let token = self
+    /// Opens the session of a service and declares its liveliness token
+    /// `<cluster>/alive/<service>`, which tells the cluster it is up.
+    pub async fn open_service(args: &BusArgs, role: Role, service: &str) -> Result<Bus, BusError> {
+        let mut bus = Bus::open(args, role, service).await?;
+        let token = bus
             .session
             .liveliness()
-            .declare_token(self.keys.alive(&self.service))
+            .declare_token(bus.keys.alive(service))
             .await?;
-        self._alive = Some(token);
-        Ok(())
+        bus._alive = Some(token);
+        Ok(bus)
     }
 
     pub fn session(&self) -> &Session {
@@ -181,14 +182,7 @@ impl Bus {
     }
 
     pub async fn reply<T: Serialize>(&self, query: &Query, value: &T) {
-        let bytes = serde_json::to_vec(value).expect("wire types serialise");
-        if let Err(e) = query
-            .reply(query.key_expr().clone(), bytes)
-            .encoding(Encoding::APPLICATION_JSON)
-            .await
-        {
-            tracing::warn!("could not answer {}: {e}", query.key_expr());
-        }
+        self.reply_at(query, query.key_expr().as_str(), value).await
     }
 
     pub async fn reply_text(&self, query: &Query, text: String, encoding: Encoding) {
@@ -202,7 +196,16 @@ impl Bus {
     }
 
     pub async fn reply_error(&self, query: &Query, message: &str) {
-        let body = serde_json::json!({ "error": message });
+        self.reply_problems(query, message, &[]).await
+    }
+
+    /// An error answer `{"error": message, "problems": [...]}` (the list only
+    /// when there is one), e.g. every problem of a refused spawn config.
+    pub async fn reply_problems(&self, query: &Query, message: &str, problems: &[String]) {
+        let mut body = serde_json::json!({ "error": message });
+        if !problems.is_empty() {
+            body["problems"] = serde_json::json!(problems);
+        }
         if let Err(e) = query
             .reply_err(serde_json::to_vec(&body).expect("json"))
             .encoding(Encoding::APPLICATION_JSON)

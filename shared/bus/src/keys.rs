@@ -12,11 +12,7 @@ pub struct Keys {
 impl Keys {
     /// Checks that `cluster` is one plain key chunk.
     pub fn new(cluster: &str) -> Result<Self, BusError> {
-        let bad = cluster.is_empty()
-            || cluster
-                .chars()
-                .any(|c| matches!(c, '/' | '*' | '$' | '?' | '#') || c.is_whitespace());
-        if bad {
+        if !is_plain_chunk(cluster) {
             return Err(BusError::ClusterName(cluster.to_string()));
         }
         Ok(Keys {

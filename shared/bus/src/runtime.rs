@@ -35,3 +35,34 @@ pub fn main_with(run: impl FnOnce() -> anyhow::Result<()>) -> std::process::Exit
         }
     }
 }
+
+/// The async runtime of a service or client command, `workers` threads.
+pub fn tokio_runtime(workers: usize) -> anyhow::Result<tokio::runtime::Runtime> {
+    use anyhow::Context;
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(workers)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")
+}
+
+/// Wall clock in microseconds since the Unix epoch (batch timestamps, latency).
+pub fn unix_micros() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(0)
+}
+
+/// Names that become key chunks (light groups, crosswalks) must be plain.
+pub fn check_key_names<'a>(
+    what: &str,
+    names: impl IntoIterator<Item = &'a str>,
+) -> anyhow::Result<()> {
+    match names.into_iter().find(|n| !crate::is_plain_chunk(n)) {
+        Some(n) => anyhow::bail!(
+            "{what} '{n}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces"
+        ),
+        None => Ok(()),
+    }
+}

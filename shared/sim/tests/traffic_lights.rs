@@ -68,3 +68,28 @@ fn yellow_stops_outside_sudden_stop_distance() {
     assert!(!passed, "drove through a yellow it could stop for");
     assert!(x < STOP_LINE_X, "stopped past the line at x={x}");
 }
+
+#[test]
+fn remote_lights_are_red_until_vouched_for_and_red_again_when_the_vouch_expires() {
+    let mut w = world(&signalised_road(), WorldConfig::default());
+    w.use_remote_lights();
+    assert!(w.lights_stale());
+    let id = w.place_vehicle("Taxi", "approach", 60.0, 13.89).unwrap();
+    run_for(&mut w, 30.0);
+    assert!(
+        vehicle(&w, id).front.x < STOP_LINE_X,
+        "crossed an unvouched light"
+    );
+    assert!(vehicle(&w, id).speed < 0.05);
+
+    let until = w.time() + 5.0;
+    w.set_remote_light("L", LightColor::Green, until).unwrap();
+    assert!(!w.lights_stale());
+    assert!(
+        run_until(&mut w, 4.0, |w| vehicle(w, id).speed > 1.0),
+        "did not go on a vouched green"
+    );
+    let left = until - w.time();
+    run_for(&mut w, left + 0.1);
+    assert!(w.lights_stale(), "the green outlived its validity");
+}

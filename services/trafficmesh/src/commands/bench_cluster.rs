@@ -4,7 +4,7 @@
 //! publication of a batch to its arrival here; plus what encoding a batch costs.
 
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -52,13 +52,6 @@ fn pct(v: &mut [f64], q: f64) -> f64 {
     }
     v.sort_by(f64::total_cmp);
     v[((v.len() - 1) as f64 * q).round() as usize]
-}
-
-fn unix_us() -> u64 {
-    SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_micros() as u64)
-        .unwrap_or(0)
 }
 
 pub fn run(a: ClusterArgs) -> Result<()> {
@@ -143,76 +136,72 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
         connect: vec![endpoint.into()],
         listen: vec!["tcp/127.0.0.1:0".into()],
     };
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()?
-        .block_on(async {
-            let bus = Bus::open(&args, Role::Member, "bench").await?;
-            let keys = bus.keys().clone();
-            let vehicles = bus.subscribe(&keys.vehicles()).await?;
-            let clock = bus.subscribe(&keys.clock()).await?;
-            // Warm-up: the map loaded and the vehicles placed.
-            let warm = Instant::now() + Duration::from_secs(120);
-            loop {
-                if Instant::now() > warm {
-                    bail!("no vehicle batches within 120 s");
-                }
-                if let Ok(Ok(s)) =
-                    tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await
-                {
-                    let b: VehicleBatch = serde_json::from_slice(&s.payload().to_bytes())?;
-                    if b.vehicles.len() * 10 >= a.vehicles * 9 {
-                        break;
-                    }
+    trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async {
+        let bus = Bus::open(&args, Role::Member, "bench").await?;
+        let keys = bus.keys().clone();
+        let vehicles = bus.subscribe(&keys.vehicles()).await?;
+        let clock = bus.subscribe(&keys.clock()).await?;
+        // Warm-up: the map loaded and the vehicles placed.
+        let warm = Instant::now() + Duration::from_secs(120);
+        loop {
+            if Instant::now() > warm {
+                bail!("no vehicle batches within 120 s");
+            }
+            if let Ok(Ok(s)) =
+                tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await
+            {
+                let b: VehicleBatch = serde_json::from_slice(&s.payload().to_bytes())?;
+                if b.vehicles.len() * 10 >= a.vehicles * 9 {
+                    break;
                 }
             }
-            while let Ok(Some(_)) = clock.try_recv() {}
-            while let Ok(Some(_)) = vehicles.try_recv() {}
-            let start = Instant::now();
-            let end = start + Duration::from_secs_f64(a.duration);
-            let (mut latencies, mut ticks_ms) = (Vec::new(), Vec::new());
-            let (mut first_tick, mut last_tick) = (None, 0u64);
-            let mut sample_batch: Option<Vec<u8>> = None;
-            while Instant::now() < end {
-                tokio::select! {
-                    Ok(s) = vehicles.recv_async() => {
-                        let now = unix_us();
-                        let bytes = s.payload().to_bytes();
-                        let b: VehicleBatch = serde_json::from_slice(&bytes)?;
-                        latencies.push(now.saturating_sub(b.sent_unix_us) as f64 / 1e3);
-                        if sample_batch.is_none() { sample_batch = Some(bytes.into_owned()); }
-                    }
-                    Ok(s) = clock.recv_async() => {
-                        if let Ok(c) = serde_json::from_slice::<Clock>(&s.payload().to_bytes()) {
-                            ticks_ms.push(c.tick_ms);
-                            first_tick.get_or_insert(c.tick);
-                            last_tick = c.tick;
-                        }
-                    }
-                    _ = tokio::time::sleep_until(end.into()) => {}
+        }
+        while let Ok(Some(_)) = clock.try_recv() {}
+        while let Ok(Some(_)) = vehicles.try_recv() {}
+        let start = Instant::now();
+        let end = start + Duration::from_secs_f64(a.duration);
+        let (mut latencies, mut ticks_ms) = (Vec::new(), Vec::new());
+        let (mut first_tick, mut last_tick) = (None, 0u64);
+        let mut sample_batch: Option<Vec<u8>> = None;
+        while Instant::now() < end {
+            tokio::select! {
+                Ok(s) = vehicles.recv_async() => {
+                    let now = trafficmesh_bus::runtime::unix_micros();
+                    let bytes = s.payload().to_bytes();
+                    let b: VehicleBatch = serde_json::from_slice(&bytes)?;
+                    latencies.push(now.saturating_sub(b.sent_unix_us) as f64 / 1e3);
+                    if sample_batch.is_none() { sample_batch = Some(bytes.into_owned()); }
                 }
+                Ok(s) = clock.recv_async() => {
+                    if let Ok(c) = serde_json::from_slice::<Clock>(&s.payload().to_bytes()) {
+                        ticks_ms.push(c.tick_ms);
+                        first_tick.get_or_insert(c.tick);
+                        last_tick = c.tick;
+                    }
+                }
+                _ = tokio::time::sleep_until(end.into()) => {}
             }
-            let seconds = start.elapsed().as_secs_f64();
-            let ticks = last_tick.saturating_sub(first_tick.unwrap_or(last_tick)) as f64;
-            let (encode, decode, bytes) = encoding_cost(sample_batch.as_deref())?;
-            let ticks_per_sec = ticks / seconds;
-            Ok(Report {
-                vehicles: a.vehicles,
-                seconds,
-                ticks_per_sec,
-                real_time: ticks_per_sec >= 49.0,
-                tick_p50_ms: pct(&mut ticks_ms, 0.5),
-                tick_p99_ms: pct(&mut ticks_ms, 0.99),
-                batches_received: latencies.len(),
-                batches_per_sec: latencies.len() as f64 / seconds,
-                batch_latency_p50_ms: pct(&mut latencies, 0.5),
-                batch_latency_p99_ms: pct(&mut latencies, 0.99),
-                batch_bytes: bytes,
-                json_encode_ms: encode,
-                json_decode_ms: decode,
-            })
+        }
+        let seconds = start.elapsed().as_secs_f64();
+        let ticks = last_tick.saturating_sub(first_tick.unwrap_or(last_tick)) as f64;
+        let (encode, decode, bytes) = encoding_cost(sample_batch.as_deref())?;
+        let ticks_per_sec = ticks / seconds;
+        Ok(Report {
+            vehicles: a.vehicles,
+            seconds,
+            ticks_per_sec,
+            real_time: ticks_per_sec >= 49.0,
+            tick_p50_ms: pct(&mut ticks_ms, 0.5),
+            tick_p99_ms: pct(&mut ticks_ms, 0.99),
+            batches_received: latencies.len(),
+            batches_per_sec: latencies.len() as f64 / seconds,
+            batch_latency_p50_ms: pct(&mut latencies, 0.5),
+            batch_latency_p99_ms: pct(&mut latencies, 0.99),
+            batch_bytes: bytes,
+            json_encode_ms: encode,
+            json_decode_ms: decode,
         })
+    })
 }
 
 /// Median time to encode and decode one batch as JSON, in this process.

@@ -2,7 +2,7 @@
 
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Result, bail};
 use clap::Args;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role};
 use trafficmesh_model::wire::EgoPose;
@@ -43,43 +43,38 @@ pub fn run(a: EgoArgs) -> Result<()> {
         bail!("--rate must be a positive number of Hz, got {r}");
     }
     a.bus.keys()?;
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?
-        .block_on(async move {
-            let bus = Bus::open(&a.bus, Role::Member, "ego").await?;
-            let publisher = bus.publisher(bus.keys().ego(), Lane::Reliable).await?;
-            // A put nobody hears is lost: wait for the subscribers first.
-            let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
-            while !publisher.has_subscribers().await {
-                if tokio::time::Instant::now() > deadline {
-                    bail!(
-                        "nobody subscribes to {} (is the cluster running?)",
-                        publisher.key()
-                    );
-                }
-                tokio::time::sleep(Duration::from_millis(20)).await;
+    trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async move {
+        let bus = Bus::open(&a.bus, Role::Member, "ego").await?;
+        let publisher = bus.publisher(bus.keys().ego(), Lane::Reliable).await?;
+        // A put nobody hears is lost: wait for the subscribers first.
+        let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
+        while !publisher.has_subscribers().await {
+            if tokio::time::Instant::now() > deadline {
+                bail!(
+                    "nobody subscribes to {} (is the cluster running?)",
+                    publisher.key()
+                );
             }
-            // The spawner and the stepper both subscribe; give the second a moment.
-            tokio::time::sleep(Duration::from_millis(200)).await;
-            match a.rate {
-                None => {
-                    publisher.put(&pose).await?;
-                    tokio::time::sleep(Duration::from_millis(100)).await;
-                    println!("ego pose published on {}", publisher.key());
-                }
-                Some(hz) => {
-                    let mut every = tokio::time::interval(Duration::from_secs_f64(1.0 / hz));
-                    loop {
-                        tokio::select! {
-                            _ = every.tick() => publisher.put(&pose).await?,
-                            _ = super::shutdown_signal() => break,
-                        }
+            tokio::time::sleep(Duration::from_millis(20)).await;
+        }
+        // The spawner and the stepper both subscribe; give the second a moment.
+        tokio::time::sleep(Duration::from_millis(200)).await;
+        match a.rate {
+            None => {
+                publisher.put(&pose).await?;
+                tokio::time::sleep(Duration::from_millis(100)).await;
+                println!("ego pose published on {}", publisher.key());
+            }
+            Some(hz) => {
+                let mut every = tokio::time::interval(Duration::from_secs_f64(1.0 / hz));
+                loop {
+                    tokio::select! {
+                        _ = every.tick() => publisher.put(&pose).await?,
+                        _ = trafficmesh_bus::runtime::shutdown_signal() => break,
                     }
                 }
             }
-            Ok(())
-        })
+        }
+        Ok(())
+    })
 }

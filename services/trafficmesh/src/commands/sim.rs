@@ -10,7 +10,7 @@ use serde::Serialize;
 use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::{SimEvent, TrajectoryHash, TripRecord, World, WorldConfig};
 
-use super::{load_network, thread_pool};
+use super::thread_pool;
 use crate::output;
 
 #[derive(Args)]
@@ -95,7 +95,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;
-    let net = load_network(&a.map)?;
+    let net = trafficmesh_maps::load_network(&a.map)?;
     let config = WorldConfig {
         seed: a.seed,
         max_vehicles: a.max_vehicles,

@@ -103,7 +103,7 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    let stop = crate::commands::shutdown_signal();
+    let stop = trafficmesh_bus::runtime::shutdown_signal();
     tokio::pin!(stop);
     let mut every = tokio::time::interval(Duration::from_millis(50));
     loop {

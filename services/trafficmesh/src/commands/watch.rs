@@ -3,7 +3,7 @@
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 use trafficmesh_bus::{Bus, BusArgs, Keys, Role};
 use trafficmesh_model::LightColor;
@@ -20,11 +20,7 @@ pub struct WatchArgs {
 
 pub fn run(a: WatchArgs) -> Result<()> {
     a.bus.keys()?;
-    tokio::runtime::Builder::new_multi_thread()
-        .worker_threads(1)
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?
+    trafficmesh_bus::runtime::tokio_runtime(1)?
         .block_on(async move {
             let bus = Bus::open(&a.bus, Role::Member, "watch").await?;
             let keys = bus.keys().clone();
@@ -57,7 +53,7 @@ pub fn run(a: WatchArgs) -> Result<()> {
                             return Ok(());
                         }
                     }
-                    _ = super::shutdown_signal() => return Ok(()),
+                    _ = trafficmesh_bus::runtime::shutdown_signal() => return Ok(()),
                 }
             }
         })

@@ -96,10 +96,6 @@ impl SpawnManager {
         self.simulators.len() - 1
     }
 
-    pub fn simulator_mut(&mut self, index: usize) -> &mut dyn TrafficSimulator {
-        self.simulators[index].as_mut()
-    }
-
     /// Takes the rates of a spawn config already validated against `net`.
     pub fn set_rates(&mut self, net: &LaneNetwork, config: &TrafficSpawnConfig) {
         self.spawn_rates.fill(0.0);

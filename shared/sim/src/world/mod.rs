@@ -214,6 +214,18 @@ impl World {
         self.set_light(group, LightControl::Remote { color, valid_until })
     }
 
+    /// Hands every light group to a remote controller (the lights service):
+    /// red until `set_remote_light` vouches for a colour.
+    pub fn use_remote_lights(&mut self) {
+        for g in 0..self.lights.len() {
+            let red = LightControl::Remote {
+                color: trafficmesh_model::LightColor::Red,
+                valid_until: f64::NEG_INFINITY,
+            };
+            self.lights.set_control(g, red, self.time);
+        }
+    }
+
     /// Whether any remotely controlled light group has gone past its validity.
     pub fn lights_stale(&self) -> bool {
         (0..self.lights.len()).any(|g| {

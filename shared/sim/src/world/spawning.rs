@@ -38,7 +38,7 @@ impl World {
         );
         let mut spawned_here = Vec::new();
         for request in &requests {
-            let outcome = match self.admit(
+            let outcome = match self.admit_spawn(
                 request.kind,
                 request.lane,
                 request.route.clone(),
@@ -55,8 +55,10 @@ impl World {
 
     /// The final check of a spawn request against the vehicles (max count, then
     /// IsSpawnable) and the spawn itself, body on the lane with the rear bumper
-    /// at its start. `spawned_here` holds this tick's earlier spawns.
-    fn admit(
+    /// at its start. The world's own spawn phase and the stepper (for the
+    /// spawner service's requests) both come here; requests of one tick go
+    /// through in order, `spawned_here` carrying the earlier ones.
+    pub fn admit_spawn(
         &mut self,
         kind: usize,
         lane: LaneId,
@@ -79,20 +81,6 @@ impl World {
         let length = self.net.kinds[kind].length;
         spawned_here.push((self.net.lane(lane).line.point(0), length));
         Ok(self.register(kind, lane, length, 0.0, route))
-    }
-
-    /// A spawn request from another process (the spawner service): checked and
-    /// spawned as in the world's own spawn phase. Requests of one tick go
-    /// through here in order; `spawned_here` carries them between calls.
-    pub fn admit_spawn(
-        &mut self,
-        kind: usize,
-        lane: LaneId,
-        route: Option<std::sync::Arc<[LaneId]>>,
-        max_vehicles: usize,
-        spawned_here: &mut Vec<(DVec2, f64)>,
-    ) -> Result<VehicleId, SpawnRejection> {
-        self.admit(kind, lane, route, max_vehicles, spawned_here)
     }
 
     /// IsSpawnable: the vehicle's box at the lane start is clear of every vehicle,
