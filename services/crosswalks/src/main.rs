@@ -12,9 +12,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use clap::Parser;
 use glam::DVec2;
-use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, runtime};
+use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
 use trafficmesh_model::wire::{
-    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, Heartbeat,
+    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy,
 };
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
@@ -181,7 +181,7 @@ async fn follow_clock(
     let heartbeat = bus
         .publisher(keys.crosswalks_heartbeat(), Lane::Reliable)
         .await?;
-    let mut last_beat = f64::NEG_INFINITY;
+    let mut vouch = Vouch::new(validity);
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         let changed = {
             let mut guard = areas.lock().expect("areas lock");
@@ -208,14 +208,8 @@ async fn follow_clock(
                 .collect::<Vec<_>>()
         };
         publish(&bus, changed).await;
-        if c.time - last_beat >= validity / 4.0 {
-            last_beat = c.time;
-            heartbeat
-                .put(&Heartbeat {
-                    time: c.time,
-                    valid_until: c.time + validity,
-                })
-                .await?;
+        if let Some(beat) = vouch.due(c.time) {
+            heartbeat.put(&beat).await?;
         }
     }
     Ok(())

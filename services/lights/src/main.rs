@@ -8,8 +8,8 @@ use std::sync::{Arc, Mutex};
 
 use anyhow::{Result, bail};
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
-use trafficmesh_model::wire::{Clock, Heartbeat, LightOverride, LightState};
+use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
+use trafficmesh_model::wire::{Clock, LightOverride, LightState};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
@@ -38,7 +38,6 @@ struct Groups {
     lights: Lights,
     time: f64,
     published: Vec<Option<LightColor>>,
-    last_beat: f64,
 }
 
 impl Groups {
@@ -78,7 +77,6 @@ fn run(args: Args) -> Result<()> {
         lights,
         time: 0.0,
         published: vec![None; n],
-        last_beat: f64::NEG_INFINITY,
     }));
     let validity = args.validity;
     runtime::tokio_runtime(1)?.block_on(async move {
@@ -109,6 +107,7 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
     let heartbeat = bus
         .publisher(keys.lights_heartbeat(), Lane::Reliable)
         .await?;
+    let mut vouch = Vouch::new(validity);
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         let (changed, beat) = {
             let mut g = groups.lock().expect("lights lock");
@@ -122,17 +121,7 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
                     changed.push(g.state(i, validity));
                 }
             }
-            let beat = c.time - g.last_beat >= validity / 4.0;
-            if beat {
-                g.last_beat = c.time;
-            }
-            (
-                changed,
-                beat.then_some(Heartbeat {
-                    time: c.time,
-                    valid_until: c.time + validity,
-                }),
-            )
+            (changed, vouch.due(c.time))
         };
         for s in changed {
             bus.put(&keys.light_state(&s.group), &s).await?;

@@ -4,12 +4,14 @@
 //! samples rather than slow its publisher.
 
 mod bus;
+mod heartbeat;
 mod keys;
 pub mod runtime;
 mod session;
 mod status;
 
 pub use bus::{Bus, JsonPublisher, Lane};
+pub use heartbeat::Vouch;
 pub use keys::{Keys, is_plain_chunk};
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
 pub use status::{BadPayloads, serve_status};
