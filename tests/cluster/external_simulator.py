@@ -1,13 +1,15 @@
 """A client we did not write (eclipse-zenoh from PyPI) against a running cluster.
 
 Usage: external_simulator.py ENDPOINT CLUSTER. Prints OK and exits 0 when:
-- vehicle batches and light states arrive and decode;
+- vehicle batches (binary, read with `struct` from the README's layout) and
+  light states arrive and decode;
 - an external simulator's proposal is spawned (its result names a vehicle
   that the stepper's events report as spawned on that lane);
 - when two external simulators propose on the same lane at once, the one
   with the higher priority spawns first.
 """
 import json
+import struct
 import sys
 import threading
 import time
@@ -35,9 +37,32 @@ lock = threading.Lock()
 batches, lights, spawned_on, results = [], {}, {}, []
 
 
+# The binary vehicle batch, read from the README's layout with `struct`.
+HEADER = struct.Struct("<4sHHQdQI")
+RECORD = struct.Struct("<QIHBBBB10f")
+FLOATS = ("s", "x", "y", "z", "yaw", "speed", "accel", "length", "width", "check_distance")
+encodings = set()
+
+
+def decode_batch(data):
+    magic, version, record, tick, sim_time, sent_us, count = HEADER.unpack_from(data, 0)
+    if magic != b"TMVB" or version != 1 or record < RECORD.size:
+        fail(f"vehicle batch header: {magic!r} version {version} record {record}")
+    if len(data) != HEADER.size + count * record:
+        fail(f"vehicle batch of {count} vehicles is {len(data)} bytes")
+    vehicles = []
+    for i in range(count):
+        fields = RECORD.unpack_from(data, HEADER.size + i * record)
+        v = dict(zip(("id", "lane", "kind", "mode", "yield_phase", "signal", "flags"), fields[:7]))
+        v.update(zip(FLOATS, fields[7:]))
+        vehicles.append(v)
+    return {"tick": tick, "time": sim_time, "vehicles": vehicles}
+
+
 def on_vehicles(sample):
-    batch = json.loads(sample.payload.to_bytes())
+    batch = decode_batch(bytes(sample.payload.to_bytes()))
     with lock:
+        encodings.add(str(sample.encoding))
         batches.append(batch)
 
 
@@ -85,9 +110,12 @@ def wait(what, cond, timeout=30.0):
 wait("a vehicle batch with vehicles", lambda: any(b["vehicles"] for b in batches))
 with lock:
     v = next(b for b in batches if b["vehicles"])["vehicles"][0]
-for field in ("id", "kind", "lane", "x", "y", "yaw", "speed", "mode"):
-    if field not in v:
-        fail("vehicle state lacks " + field)
+    encoding = set(encodings)
+if encoding != {"application/octet-stream;trafficmesh.vehicles.v1"}:
+    fail(f"vehicle batch encoding: {encoding}")
+# Speed modes NORMAL..ABSOLUTE_STOP, kinds from the five-entry catalogue, a car-sized box.
+if not (v["mode"] < 5 and v["kind"] < 5 and 2.0 < v["length"] < 12.0 and 1.0 < v["width"] < 3.0):
+    fail(f"vehicle state out of range: {v}")
 
 # Light states: the current ones by query, changes by subscription.
 for reply in session.get(f"{CLUSTER}/lights/state/*"):
@@ -118,6 +146,8 @@ with lock:
 wait("the spawned event of low-1", lambda: low_id in spawned_on)
 if spawned_on[low_id] != LANE:
     fail(f"low-1 spawned on {spawned_on[low_id]}")
+# ... and drives in the telemetry, decoded from the binary batch.
+wait("low-1 in a vehicle batch", lambda: any(v["id"] == low_id for v in batches[-1]["vehicles"]))
 
 # Both propose inside the rate-limit window; the higher priority goes first.
 propose("py_high", 100, "high-1")

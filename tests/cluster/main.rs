@@ -439,6 +439,9 @@ fn bad_payloads_are_counted_and_dropped_and_nothing_crashes() {
         let keys = bus.keys().clone();
         let stepper_pid = status(&bus, "stepper").await.pid;
         let spawner_pid = status(&bus, "spawner").await.pid;
+        for key in [keys.ego(), keys.light_state("J0_0_NS"), keys.proposals("py"), keys.agents("bad")] {
+            subscriber_on(&bus, &key).await;
+        }
         let session = bus.session();
         session.put(keys.ego(), "{not json").await.unwrap();
         session.put(keys.ego(), r#"{"x": 1e999, "y": 0, "yaw": 0}"#).await.unwrap();

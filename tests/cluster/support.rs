@@ -175,6 +175,20 @@ pub async fn status(bus: &Bus, service: &str) -> ServiceStatus {
     }
 }
 
+/// Waits until a subscriber on `key` is known to this session, so that a put
+/// is not lost to a declaration still on its way.
+pub async fn subscriber_on(bus: &Bus, key: &str) {
+    let publisher = bus
+        .publisher(key.to_string(), trafficmesh_bus::Lane::Reliable)
+        .await
+        .unwrap();
+    let deadline = Instant::now() + Duration::from_secs(20);
+    while !publisher.has_subscribers().await {
+        assert!(Instant::now() < deadline, "no subscriber on {key}");
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+}
+
 /// A query that retries while the service is still starting.
 pub async fn ask<Q: Serialize, R: DeserializeOwned>(bus: &Bus, key: &str, q: &Q) -> R {
     let deadline = Instant::now() + Duration::from_secs(20);
@@ -223,7 +237,7 @@ impl Batches {
         while let Ok(Some(s)) = self.sub.try_recv() {
             sample = s;
         }
-        serde_json::from_slice(&sample.payload().to_bytes()).expect("batch decodes")
+        VehicleBatch::decode(&sample.payload().to_bytes()).expect("batch decodes")
     }
 
     /// Waits until `pred` holds for a batch; returns it.

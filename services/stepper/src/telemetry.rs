@@ -1,5 +1,5 @@
 //! Per-tick publication: the tick thread hands over plain data; this task
-//! encodes and publishes it, so neither JSON encoding nor a slow subscriber
+//! encodes and publishes it, so neither encoding nor a slow subscriber
 //! holds up the next tick (the hand-over queue is short and drops when full).
 
 use std::sync::Arc;
@@ -8,6 +8,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use tokio::sync::mpsc;
 use trafficmesh_bus::{Bus, BusError, Lane};
 use trafficmesh_model::catalog::builtin_names;
+use trafficmesh_model::wire::vehicle_codec;
 use trafficmesh_model::wire::{Clock, Event, EventBatch, VehicleBatch, VehicleState};
 use trafficmesh_sim::{SimEvent, World};
 
@@ -122,7 +123,9 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
 pub async fn start(bus: Arc<Bus>) -> Result<Outputs, BusError> {
     let keys = bus.keys();
     let clock = bus.publisher(keys.clock(), Lane::Telemetry).await?;
-    let vehicles = bus.publisher(keys.vehicles(), Lane::Telemetry).await?;
+    let vehicles = bus
+        .binary_publisher(keys.vehicles(), Lane::Telemetry, vehicle_codec::SCHEMA)
+        .await?;
     // Events too are dropped for a subscriber that cannot keep up: a stalled
     // subscriber must never stall the stepper's publications (the clock
     // included, which the lights and crosswalks heartbeats follow).
@@ -139,8 +142,7 @@ pub async fn start(bus: Arc<Bus>) -> Result<Outputs, BusError> {
                 sent_unix_us: trafficmesh_bus::runtime::unix_micros(),
                 vehicles: out.vehicles,
             };
-            let bytes = serde_json::to_vec(&batch).expect("wire types serialise");
-            if let Err(e) = vehicles.put_bytes(bytes).await {
+            if let Err(e) = vehicles.put_bytes(batch.encode()).await {
                 tracing::warn!("cannot publish vehicles: {e}");
             }
             if !out.events.is_empty() {

@@ -89,11 +89,33 @@ impl Bus {
         }
     }
 
-    pub async fn publisher(&self, key: String, lane: Lane) -> Result<JsonPublisher, BusError> {
+    pub async fn publisher(&self, key: String, lane: Lane) -> Result<Publisher, BusError> {
+        self.publisher_encoded(key, lane, Encoding::APPLICATION_JSON)
+            .await
+    }
+
+    /// A publisher of binary payloads (put with `put_bytes`), tagged
+    /// `application/octet-stream;<schema>` so a reader can tell the layout.
+    pub async fn binary_publisher(
+        &self,
+        key: String,
+        lane: Lane,
+        schema: &str,
+    ) -> Result<Publisher, BusError> {
+        let encoding = Encoding::APPLICATION_OCTET_STREAM.with_schema(schema);
+        self.publisher_encoded(key, lane, encoding).await
+    }
+
+    async fn publisher_encoded(
+        &self,
+        key: String,
+        lane: Lane,
+        encoding: Encoding,
+    ) -> Result<Publisher, BusError> {
         let builder = self
             .session
             .declare_publisher(key.clone())
-            .encoding(Encoding::APPLICATION_JSON);
+            .encoding(encoding);
         let publisher = match lane {
             Lane::Reliable => builder.congestion_control(CongestionControl::Block),
             Lane::Telemetry => builder
@@ -101,7 +123,7 @@ impl Bus {
                 .express(true),
         }
         .await?;
-        Ok(JsonPublisher { key, publisher })
+        Ok(Publisher { key, publisher })
     }
 
     /// A reliable one-off put.
@@ -299,13 +321,13 @@ impl Bus {
     }
 }
 
-/// A declared publisher of one JSON type.
-pub struct JsonPublisher {
+/// A declared publisher of one key (JSON unless declared otherwise).
+pub struct Publisher {
     key: String,
     publisher: zenoh::pubsub::Publisher<'static>,
 }
 
-impl JsonPublisher {
+impl Publisher {
     pub fn key(&self) -> &str {
         &self.key
     }
@@ -315,7 +337,7 @@ impl JsonPublisher {
             .await
     }
 
-    /// Bytes already encoded as JSON (encoded off the caller's thread).
+    /// Bytes already encoded in the publisher's encoding.
     pub async fn put_bytes(&self, bytes: Vec<u8>) -> Result<(), BusError> {
         self.publisher.put(bytes).await?;
         Ok(())

@@ -10,7 +10,7 @@ pub mod runtime;
 mod session;
 mod status;
 
-pub use bus::{Bus, JsonPublisher, Lane};
+pub use bus::{Bus, Lane, Publisher};
 pub use heartbeat::Vouch;
 pub use keys::{Keys, is_plain_chunk};
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};

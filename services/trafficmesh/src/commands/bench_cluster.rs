@@ -41,7 +41,12 @@ struct Report {
     batches_per_sec: f64,
     batch_latency_p50_ms: f64,
     batch_latency_p99_ms: f64,
+    /// The batch as published (binary, see `vehicle_codec`).
     batch_bytes: usize,
+    binary_encode_ms: f64,
+    binary_decode_ms: f64,
+    /// The same batch as JSON, for the comparison that chose the encoding.
+    json_bytes: usize,
     json_encode_ms: f64,
     json_decode_ms: f64,
 }
@@ -99,7 +104,7 @@ pub fn run(a: ClusterArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         println!(
-            "{} vehicles, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes, JSON encode {:.2} ms, decode {:.2} ms",
+            "{} vehicles, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes binary (encode {:.2} ms, decode {:.2} ms), {} bytes as JSON (encode {:.2} ms, decode {:.2} ms)",
             report.vehicles,
             report.seconds,
             report.ticks_per_sec,
@@ -115,6 +120,9 @@ pub fn run(a: ClusterArgs) -> Result<()> {
             report.batch_latency_p50_ms,
             report.batch_latency_p99_ms,
             report.batch_bytes,
+            report.binary_encode_ms,
+            report.binary_decode_ms,
+            report.json_bytes,
             report.json_encode_ms,
             report.json_decode_ms
         );
@@ -150,7 +158,7 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
             if let Ok(Ok(s)) =
                 tokio::time::timeout(Duration::from_secs(1), vehicles.recv_async()).await
             {
-                let b: VehicleBatch = serde_json::from_slice(&s.payload().to_bytes())?;
+                let b = VehicleBatch::decode(&s.payload().to_bytes())?;
                 if b.vehicles.len() * 10 >= a.vehicles * 9 {
                     break;
                 }
@@ -168,7 +176,7 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
                 Ok(s) = vehicles.recv_async() => {
                     let now = trafficmesh_bus::runtime::unix_micros();
                     let bytes = s.payload().to_bytes();
-                    let b: VehicleBatch = serde_json::from_slice(&bytes)?;
+                    let b = VehicleBatch::decode(&bytes)?;
                     latencies.push(now.saturating_sub(b.sent_unix_us) as f64 / 1e3);
                     if sample_batch.is_none() { sample_batch = Some(bytes.into_owned()); }
                 }
@@ -184,7 +192,7 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
         }
         let seconds = start.elapsed().as_secs_f64();
         let ticks = last_tick.saturating_sub(first_tick.unwrap_or(last_tick)) as f64;
-        let (encode, decode, bytes) = encoding_cost(sample_batch.as_deref())?;
+        let cost = encoding_cost(sample_batch.as_deref())?;
         let ticks_per_sec = ticks / seconds;
         Ok(Report {
             vehicles: a.vehicles,
@@ -197,27 +205,67 @@ fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
             batches_per_sec: latencies.len() as f64 / seconds,
             batch_latency_p50_ms: pct(&mut latencies, 0.5),
             batch_latency_p99_ms: pct(&mut latencies, 0.99),
-            batch_bytes: bytes,
-            json_encode_ms: encode,
-            json_decode_ms: decode,
+            batch_bytes: cost.binary.bytes,
+            binary_encode_ms: cost.binary.encode_ms,
+            binary_decode_ms: cost.binary.decode_ms,
+            json_bytes: cost.json.bytes,
+            json_encode_ms: cost.json.encode_ms,
+            json_decode_ms: cost.json.decode_ms,
         })
     })
 }
 
-/// Median time to encode and decode one batch as JSON, in this process.
-fn encoding_cost(sample: Option<&[u8]>) -> Result<(f64, f64, usize)> {
+struct Cost {
+    bytes: usize,
+    encode_ms: f64,
+    decode_ms: f64,
+}
+
+struct Costs {
+    binary: Cost,
+    json: Cost,
+}
+
+/// Median time to encode and decode one received batch, binary and JSON, in
+/// this process.
+fn encoding_cost(sample: Option<&[u8]>) -> Result<Costs> {
     let Some(bytes) = sample else {
-        return Ok((f64::NAN, f64::NAN, 0));
+        let nan = || Cost {
+            bytes: 0,
+            encode_ms: f64::NAN,
+            decode_ms: f64::NAN,
+        };
+        return Ok(Costs {
+            binary: nan(),
+            json: nan(),
+        });
     };
-    let batch: VehicleBatch = serde_json::from_slice(bytes)?;
-    let (mut enc, mut dec) = (Vec::new(), Vec::new());
+    let batch = VehicleBatch::decode(bytes)?;
+    let binary = time_codec(|| batch.encode(), |b| Ok(VehicleBatch::decode(b)?))?;
+    let json = time_codec(
+        || serde_json::to_vec(&batch).expect("wire types serialise"),
+        |b| Ok(serde_json::from_slice(b)?),
+    )?;
+    Ok(Costs { binary, json })
+}
+
+fn time_codec(
+    encode: impl Fn() -> Vec<u8>,
+    decode: impl Fn(&[u8]) -> Result<VehicleBatch>,
+) -> Result<Cost> {
+    let (mut enc, mut dec, mut bytes) = (Vec::new(), Vec::new(), 0);
     for _ in 0..20 {
         let t = Instant::now();
-        let out = serde_json::to_vec(&batch)?;
+        let out = encode();
         enc.push(t.elapsed().as_secs_f64() * 1e3);
         let t = Instant::now();
-        let _: VehicleBatch = serde_json::from_slice(&out)?;
+        decode(&out)?;
         dec.push(t.elapsed().as_secs_f64() * 1e3);
+        bytes = out.len();
     }
-    Ok((pct(&mut enc, 0.5), pct(&mut dec, 0.5), bytes.len()))
+    Ok(Cost {
+        bytes,
+        encode_ms: pct(&mut enc, 0.5),
+        decode_ms: pct(&mut dec, 0.5),
+    })
 }

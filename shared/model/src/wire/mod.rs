@@ -1,4 +1,5 @@
-//! Messages on the Zenoh bus (serde_json payloads). The README's key-expression
+//! Messages on the Zenoh bus (serde_json payloads, but the per-tick vehicle
+//! batch in the binary layout of `vehicle_codec`). The README's key-expression
 //! table says which key carries which type; these structs are that contract.
 //!
 //! Poses are in the map frame (metres, yaw in radians counter-clockwise from +x).
@@ -8,6 +9,7 @@ mod agents;
 mod commands;
 mod states;
 mod telemetry;
+pub mod vehicle_codec;
 
 pub use agents::{Agent, AgentBatch, BlockedStopAnswer, BlockedStopQuery};
 pub use commands::{
