@@ -1,6 +1,8 @@
 //! The cluster end to end: `trafficmesh up` starts the real services; the
 //! tests talk to them over Zenoh as a user's client would.
 
+// Shared with tests/admin, which uses a different part of it.
+#[allow(dead_code)]
 mod support;
 
 use std::collections::HashSet;

@@ -32,9 +32,14 @@ pub struct Cluster {
     pub name: String,
     pub endpoint: String,
     pub dir: tempfile::TempDir,
+    /// `http://127.0.0.1:<port>` when the admin runs.
+    pub admin: Option<String>,
     child: Child,
     log: PathBuf,
 }
+
+/// The admin token the test clusters use.
+pub const TOKEN: &str = "test-token-0123456789abcdef";
 
 impl Cluster {
     /// Starts `trafficmesh up` with the four-way map; `extra` is appended to
@@ -51,7 +56,26 @@ impl Cluster {
         stepper_speed: f64,
         backoff_ms: u64,
     ) -> Cluster {
+        Self::launch(test, spawner, pedestrians, stepper_speed, backoff_ms, false)
+    }
+
+    /// As `start`, with the REST admin on a free port (token [`TOKEN`]).
+    pub fn start_with_admin(test: &str, spawner: &str, pedestrians: bool) -> Cluster {
+        let cluster = Self::launch(test, spawner, pedestrians, 1.0, 200, true);
+        cluster.wait_for_admin();
+        cluster
+    }
+
+    fn launch(
+        test: &str,
+        spawner: &str,
+        pedestrians: bool,
+        stepper_speed: f64,
+        backoff_ms: u64,
+        with_admin: bool,
+    ) -> Cluster {
         let dir = tempfile::tempdir().unwrap();
+        let admin_port = free_port();
         let name = format!("t{}_{test}", std::process::id());
         let endpoint = format!("tcp/127.0.0.1:{}", free_port());
         let config = format!(
@@ -70,6 +94,11 @@ enabled = {pedestrians}
 [restart]
 initial_backoff_ms = {backoff_ms}
 max_backoff_ms = {backoff_ms}
+[admin]
+enabled = {with_admin}
+listen = "127.0.0.1:{admin_port}"
+token = "{TOKEN}"
+token_file = "{dir}/admin.token"
 "#,
             map = four_way().display(),
             dir = dir.path().display(),
@@ -89,8 +118,30 @@ max_backoff_ms = {backoff_ms}
             name,
             endpoint,
             dir,
+            admin: with_admin.then(|| format!("http://127.0.0.1:{admin_port}")),
             child,
             log,
+        }
+    }
+
+    /// Waits (up to a minute) until the admin answers and sees the core services alive.
+    fn wait_for_admin(&self) {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        loop {
+            if let Ok(mut r) =
+                ureq::get(format!("{}/api/v1/status", self.admin.as_ref().unwrap())).call()
+            {
+                let status: serde_json::Value = r.body_mut().read_json().unwrap();
+                if status["degraded"] == false && status["vehicles"].is_u64() {
+                    return;
+                }
+            }
+            assert!(
+                Instant::now() < deadline,
+                "admin not ready within 60 s; log:\n{}",
+                self.log()
+            );
+            std::thread::sleep(Duration::from_millis(200));
         }
     }
 

@@ -274,13 +274,22 @@ impl Bus {
                 Ok(sample) => Ok(sample.payload().to_bytes().into_owned()),
                 Err(err) => {
                     let raw = err.payload().to_bytes();
-                    let message = serde_json::from_slice::<serde_json::Value>(&raw)
-                        .ok()
-                        .and_then(|v| v.get("error").and_then(|e| e.as_str()).map(String::from))
+                    let body = serde_json::from_slice::<serde_json::Value>(&raw).ok();
+                    let message = body
+                        .as_ref()
+                        .and_then(|v| v.get("error")?.as_str().map(String::from))
                         .unwrap_or_else(|| String::from_utf8_lossy(&raw).into_owned());
+                    let problems = body
+                        .as_ref()
+                        .and_then(|v| v.get("problems")?.as_array().cloned())
+                        .unwrap_or_default()
+                        .into_iter()
+                        .filter_map(|p| p.as_str().map(String::from))
+                        .collect();
                     Err(BusError::Remote {
                         key: key.to_string(),
                         message,
+                        problems,
                     })
                 }
             });

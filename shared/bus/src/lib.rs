@@ -28,8 +28,13 @@ pub enum BusError {
     Zenoh(String),
     #[error("{key}: no answer within {timeout_ms} ms (is the service running?)")]
     NoAnswer { key: String, timeout_ms: u128 },
+    /// An error answer; `problems` lists each problem when the service gave a list.
     #[error("{key}: {message}")]
-    Remote { key: String, message: String },
+    Remote {
+        key: String,
+        message: String,
+        problems: Vec<String>,
+    },
     #[error("{key}: answer is not valid JSON for {what}: {reason}")]
     BadAnswer {
         key: String,

@@ -79,7 +79,7 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     std::fs::write(
         &config,
         format!(
-            "cluster = \"{cluster}\"\nmap = \"{}\"\nendpoint = \"{endpoint}\"\n[stepper]\npopulate = {}\n[spawner]\nmax_vehicles = {}\nspawn_config = \"{}\"\nbranch_csv = \"{}\"\n[pedestrians]\nenabled = false\n",
+            "cluster = \"{cluster}\"\nmap = \"{}\"\nendpoint = \"{endpoint}\"\n[stepper]\npopulate = {}\n[spawner]\nmax_vehicles = {}\nspawn_config = \"{}\"\nbranch_csv = \"{}\"\n[pedestrians]\nenabled = false\n[admin]\nenabled = false\n",
             map.display(),
             a.vehicles,
             a.vehicles,

@@ -28,7 +28,46 @@ pub struct ClusterConfig {
     #[serde(default)]
     pub pedestrians: PedestriansSection,
     #[serde(default)]
+    pub admin: AdminSection,
+    #[serde(default)]
     pub restart: RestartSection,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct AdminSection {
+    pub enabled: bool,
+    pub listen: String,
+    /// The bearer token; TRAFFICMESH_ADMIN_TOKEN in the environment also works.
+    /// Handed to the admin in its environment, never on its command line.
+    pub token: Option<String>,
+    /// Where a generated token is kept (default ~/.config/trafficmesh/admin.token).
+    pub token_file: Option<PathBuf>,
+    pub max_body_bytes: usize,
+    pub request_timeout: f64,
+    /// Origins allowed by CORS; empty = CORS off.
+    pub cors_origins: Vec<String>,
+}
+impl Default for AdminSection {
+    fn default() -> Self {
+        AdminSection {
+            enabled: true,
+            listen: "127.0.0.1:8080".into(),
+            token: None,
+            token_file: None,
+            max_body_bytes: 1 << 20,
+            request_timeout: 10.0,
+            cors_origins: Vec::new(),
+        }
+    }
+}
+
+/// One service as `up` starts it.
+pub struct Launch {
+    pub name: &'static str,
+    pub flags: Vec<String>,
+    /// Extra environment (secrets stay off the command line).
+    pub env: Vec<(String, String)>,
 }
 
 #[derive(Debug, Deserialize)]
@@ -133,8 +172,8 @@ impl ClusterConfig {
         Ok(config)
     }
 
-    /// Every service to start: (name, binary, flags).
-    pub fn services(&self) -> Vec<(&'static str, Vec<String>)> {
+    /// Every service to start.
+    pub fn services(&self) -> Vec<Launch> {
         let map = self.map.display().to_string();
         let mut common = vec!["--cluster".to_string(), self.cluster.clone()];
         if let Some(z) = &self.zenoh_config {
@@ -170,7 +209,7 @@ impl ClusterConfig {
             "--populate".into(),
             self.stepper.populate.to_string(),
         ]);
-        let mut list = vec![
+        let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),
             (
                 "spawner",
@@ -210,6 +249,42 @@ impl ClusterConfig {
                 ]),
             ));
         }
-        list
+        let mut launches: Vec<Launch> = list
+            .into_iter()
+            .map(|(name, flags)| Launch {
+                name,
+                flags,
+                env: Vec::new(),
+            })
+            .collect();
+        if self.admin.enabled {
+            let a = &self.admin;
+            let mut extra = vec![
+                "--bind".into(),
+                a.listen.clone(),
+                "--max-body-bytes".into(),
+                a.max_body_bytes.to_string(),
+                "--request-timeout".into(),
+                a.request_timeout.to_string(),
+            ];
+            if let Some(f) = &a.token_file {
+                extra.extend(["--token-file".into(), f.display().to_string()]);
+            }
+            for origin in &a.cors_origins {
+                extra.extend(["--cors-origin".into(), origin.clone()]);
+            }
+            let expected: Vec<&str> = launches.iter().map(|l| l.name).collect();
+            extra.extend(["--expect".into(), expected.join(",")]);
+            launches.push(Launch {
+                name: "admin",
+                flags: member(extra),
+                env: a
+                    .token
+                    .iter()
+                    .map(|t| ("TRAFFICMESH_ADMIN_TOKEN".to_string(), t.clone()))
+                    .collect(),
+            });
+        }
+        launches
     }
 }

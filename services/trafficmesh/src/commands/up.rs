@@ -45,6 +45,7 @@ fn service_binary(service: &str) -> PathBuf {
 struct Running {
     name: &'static str,
     flags: Vec<String>,
+    env: Vec<(String, String)>,
     child: Option<Child>,
     started: Instant,
     backoff: Duration,
@@ -84,9 +85,10 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
     let mut services: Vec<Running> = config
         .services()
         .into_iter()
-        .map(|(name, flags)| Running {
-            name,
-            flags,
+        .map(|l| Running {
+            name: l.name,
+            flags: l.flags,
+            env: l.env,
             child: None,
             started: Instant::now(),
             backoff: initial,
@@ -166,7 +168,7 @@ fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Durati
     }
     if s.child.is_none() && s.restart_at.is_some_and(|t| Instant::now() >= t) {
         s.restart_at = None;
-        match start(s.name, &s.flags, lines) {
+        match start(s, lines) {
             Ok(child) => {
                 tracing::info!("{} started (pid {})", s.name, child.id().unwrap_or(0));
                 s.child = Some(child);
@@ -181,14 +183,12 @@ fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Durati
     }
 }
 
-fn start(
-    name: &'static str,
-    flags: &[String],
-    lines: &mpsc::UnboundedSender<String>,
-) -> Result<Child> {
+fn start(s: &Running, lines: &mpsc::UnboundedSender<String>) -> Result<Child> {
+    let name = s.name;
     let binary = service_binary(name);
     let mut child = Command::new(&binary)
-        .args(flags)
+        .args(&s.flags)
+        .envs(s.env.iter().cloned())
         .stdin(Stdio::null())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())

@@ -1,0 +1,142 @@
+//! trafficmesh-admin: the REST admin of a cluster (axum on 127.0.0.1:8080 by
+//! default). Talks to the other services only over Zenoh.
+
+mod api;
+mod live;
+mod mapinfo;
+mod metrics;
+mod problem;
+mod token;
+mod view;
+
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::Arc;
+use std::time::Duration;
+
+use anyhow::{Context, Result, bail};
+use clap::Parser;
+use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+
+#[derive(Parser)]
+#[command(
+    name = "trafficmesh-admin",
+    version,
+    about = "REST admin of a trafficmesh cluster: spawn config, branch CSV, vehicles, lights, crosswalks, /metrics, and a live map at /",
+    after_help = "Usually started by `trafficmesh up`. API documentation: /swagger-ui and /api/v1/openapi.json on the listening address.\n\
+Mutating endpoints need `Authorization: Bearer <token>`: the token is --token or TRAFFICMESH_ADMIN_TOKEN, else the token file; \
+when neither exists a token is generated, written to the token file (mode 0600) and printed once."
+)]
+struct Args {
+    #[command(flatten)]
+    bus: BusArgs,
+    /// Map file (native `.map.json`): names for the lane and kind indices, geometry for the live map.
+    #[arg(long)]
+    map: PathBuf,
+    /// HTTP address to listen on (`--listen` is the Zenoh one).
+    #[arg(long, default_value = "127.0.0.1:8080")]
+    bind: SocketAddr,
+    /// Bearer token for mutating endpoints.
+    #[arg(long, env = "TRAFFICMESH_ADMIN_TOKEN", hide_env_values = true)]
+    token: Option<String>,
+    /// Where the token is kept when not given (default ~/.config/trafficmesh/admin.token).
+    #[arg(long, env = "TRAFFICMESH_ADMIN_TOKEN_FILE")]
+    token_file: Option<PathBuf>,
+    /// Largest request body accepted, bytes.
+    #[arg(long, default_value_t = 1 << 20)]
+    max_body_bytes: usize,
+    /// Seconds before a request is answered 408.
+    #[arg(long, default_value_t = 10.0)]
+    request_timeout: f64,
+    /// Seconds a request waits for a service's answer on the bus before 503.
+    #[arg(long, default_value_t = 3.0)]
+    bus_timeout: f64,
+    /// Origin allowed to call the API from a browser page elsewhere (repeatable). None: CORS off.
+    #[arg(long = "cors-origin")]
+    cors_origins: Vec<String>,
+    /// Services whose absence makes the cluster degraded.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "stepper,spawner,lights,crosswalks"
+    )]
+    expect: Vec<String>,
+}
+
+fn main() -> ExitCode {
+    runtime::main_with(|| run(Args::parse()))
+}
+
+fn seconds(name: &str, value: f64) -> Result<Duration> {
+    if !(value.is_finite() && value > 0.0) {
+        bail!("{name} must be a positive number of seconds, got {value}");
+    }
+    Ok(Duration::from_secs_f64(value))
+}
+
+fn default_token_file() -> PathBuf {
+    let home = std::env::var_os("HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| ".".into());
+    home.join(".config/trafficmesh/admin.token")
+}
+
+fn run(args: Args) -> Result<()> {
+    let request_timeout = seconds("--request-timeout", args.request_timeout)?;
+    let bus_timeout = seconds("--bus-timeout", args.bus_timeout)?;
+    if args.max_body_bytes == 0 {
+        bail!("--max-body-bytes must be positive");
+    }
+    args.bus.keys()?;
+    let net = trafficmesh_maps::load_network(&args.map)?;
+    let token_file = args.token_file.clone().unwrap_or_else(default_token_file);
+    let (token, source) = token::resolve(args.token.clone(), &token_file)?;
+    if source == token::Source::Generated {
+        // The one time the token is shown; it is never logged.
+        println!(
+            "admin token (generated, saved to {}; shown only now): {token}",
+            token_file.display()
+        );
+    }
+    runtime::tokio_runtime(2)?.block_on(async move {
+        let metrics = metrics::install()?;
+        let bus = Arc::new(Bus::open_service(&args.bus, Role::Member, "admin").await?);
+        let view = Arc::new(view::ClusterView::default());
+        view.follow(bus.clone()).await?;
+        let (status_view, bind) = (view.clone(), args.bind.to_string());
+        trafficmesh_bus::serve_status(
+            bus.clone(),
+            Arc::new(move || {
+                let time = status_view.read().clock.as_ref().map_or(0.0, |c| c.time);
+                (time, serde_json::json!({ "http": bind }))
+            }),
+        );
+        let app = Arc::new(api::App {
+            bus,
+            view,
+            map: mapinfo::MapInfo::new(net),
+            token,
+            metrics,
+            expected: args.expect.clone(),
+            bus_timeout,
+        });
+        let limits = api::Limits {
+            max_body_bytes: args.max_body_bytes,
+            request_timeout,
+            cors_origins: args.cors_origins.clone(),
+        };
+        let router = api::router(app, &limits);
+        let listener = tokio::net::TcpListener::bind(args.bind)
+            .await
+            .with_context(|| format!("cannot listen on {}", args.bind))?;
+        tracing::info!(
+            "admin on http://{}: live map at /, API docs at /swagger-ui, metrics at /metrics",
+            listener.local_addr()?
+        );
+        axum::serve(listener, router)
+            .with_graceful_shutdown(runtime::shutdown_signal())
+            .await?;
+        Ok(())
+    })
+}

@@ -1,0 +1,160 @@
+//! What the admin knows of the cluster, kept current from the bus: the newest
+//! clock and vehicle batch, light and crosswalk states, each service's status
+//! and liveliness. Reads (status, vehicles, the live map) are answered from
+//! here, so a REST request never waits on the bus for them.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::{Arc, RwLock};
+use std::time::Instant;
+
+use anyhow::Result;
+use trafficmesh_bus::Bus;
+use trafficmesh_model::wire::{Clock, CrosswalkOccupancy, EventBatch, LightState, ServiceStatus};
+use zenoh::bytes::ZBytes;
+use zenoh::sample::SampleKind;
+
+use crate::metrics;
+
+#[derive(Default)]
+pub struct ViewState {
+    pub clock: Option<Clock>,
+    /// The newest vehicle batch as published (binary, see `vehicle_codec`).
+    pub batch: Option<ZBytes>,
+    pub lights: BTreeMap<String, LightState>,
+    pub occupancy: BTreeMap<String, CrosswalkOccupancy>,
+    pub statuses: BTreeMap<String, (ServiceStatus, Instant)>,
+    pub alive: BTreeSet<String>,
+    /// Bumped on every light or crosswalk change, so the live map sends them only then.
+    pub states_version: u64,
+}
+
+#[derive(Default)]
+pub struct ClusterView {
+    state: RwLock<ViewState>,
+}
+
+impl ClusterView {
+    pub fn read(&self) -> std::sync::RwLockReadGuard<'_, ViewState> {
+        self.state.read().expect("view lock")
+    }
+
+    fn write(&self) -> std::sync::RwLockWriteGuard<'_, ViewState> {
+        self.state.write().expect("view lock")
+    }
+
+    /// Subscribes to everything the view holds; the tasks run until the process ends.
+    pub async fn follow(self: &Arc<Self>, bus: Arc<Bus>) -> Result<()> {
+        let keys = bus.keys().clone();
+
+        let vehicles = bus.subscribe_ring(&keys.vehicles(), 1).await?;
+        let view = self.clone();
+        tokio::spawn(async move {
+            while let Ok(sample) = vehicles.recv_async().await {
+                view.write().batch = Some(sample.payload().clone());
+            }
+        });
+
+        let clock = bus.subscribe_ring(&keys.clock(), 1).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Ok(sample) = clock.recv_async().await {
+                if let Some(c) = b.decode::<Clock>(&sample) {
+                    metrics::record_clock(&c);
+                    view.write().clock = Some(c);
+                }
+            }
+        });
+
+        // Events only feed the counters; every batch counts, so no ring here.
+        let events = bus.subscribe(&keys.events()).await?;
+        let b = bus.clone();
+        tokio::spawn(async move {
+            while let Ok(sample) = events.recv_async().await {
+                if let Some(batch) = b.decode::<EventBatch>(&sample) {
+                    metrics::record_events(&batch.events);
+                }
+            }
+        });
+
+        let lights = bus.subscribe(&keys.light_states()).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Ok(sample) = lights.recv_async().await {
+                if let Some(s) = b.decode::<LightState>(&sample) {
+                    let mut v = view.write();
+                    v.lights.insert(s.group.clone(), s);
+                    v.states_version += 1;
+                }
+            }
+        });
+
+        let occupancy = bus.subscribe(&keys.occupancies()).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Ok(sample) = occupancy.recv_async().await {
+                if let Some(o) = b.decode::<CrosswalkOccupancy>(&sample) {
+                    let mut v = view.write();
+                    v.occupancy.insert(o.area.clone(), o);
+                    v.states_version += 1;
+                }
+            }
+        });
+
+        let statuses = bus.subscribe(&keys.all_status()).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Ok(sample) = statuses.recv_async().await {
+                if let Some(s) = b.decode::<ServiceStatus>(&sample) {
+                    metrics::record_status(&s);
+                    view.write()
+                        .statuses
+                        .insert(s.service.clone(), (s, Instant::now()));
+                }
+            }
+        });
+
+        // Liveliness with history: the tokens already there, then arrivals and departures.
+        let alive = bus
+            .session()
+            .liveliness()
+            .declare_subscriber(keys.all_alive())
+            .history(true)
+            .await
+            .map_err(|e| anyhow::anyhow!("liveliness subscription: {e}"))?;
+        let view = self.clone();
+        tokio::spawn(async move {
+            while let Ok(sample) = alive.recv_async().await {
+                let service =
+                    trafficmesh_bus::Keys::last_chunk(sample.key_expr().as_str()).to_string();
+                let mut v = view.write();
+                match sample.kind() {
+                    SampleKind::Put => v.alive.insert(service),
+                    SampleKind::Delete => v.alive.remove(&service),
+                };
+            }
+        });
+
+        self.catch_up(&bus).await;
+        Ok(())
+    }
+
+    /// Light and crosswalk states published before the admin started.
+    async fn catch_up(&self, bus: &Bus) {
+        let keys = bus.keys();
+        let timeout = std::time::Duration::from_secs(2);
+        let lights = bus
+            .get_each::<LightState>(&keys.light_states(), timeout)
+            .await;
+        let occupancy = bus
+            .get_each::<CrosswalkOccupancy>(&keys.occupancies(), timeout)
+            .await;
+        let mut v = self.write();
+        for s in lights.unwrap_or_default() {
+            v.lights.entry(s.group.clone()).or_insert(s);
+        }
+        for o in occupancy.unwrap_or_default() {
+            v.occupancy.entry(o.area.clone()).or_insert(o);
+        }
+        v.states_version += 1;
+    }
+}
