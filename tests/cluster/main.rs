@@ -477,7 +477,7 @@ fn bad_payloads_are_counted_and_dropped_and_nothing_crashes() {
 
 #[test]
 fn python_clients_subscribe_and_act_as_an_external_simulator() {
-    let Some(python) = python_with_zenoh() else {
+    let Some(python) = python_with("zenoh", "eclipse-zenoh==1.10.2") else {
         return;
     };
     // Spawner without its own map simulators' competition on the test lane is
@@ -505,24 +505,3 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
 
 /// The virtualenv `.ci/run` makes (TRAFFICMESH_PYTHON), else `python3` if it
 /// has the `zenoh` module; skipped with a notice otherwise unless required.
-fn python_with_zenoh() -> Option<String> {
-    let candidates = std::env::var("TRAFFICMESH_PYTHON")
-        .into_iter()
-        .chain(["python3".to_string()]);
-    for p in candidates {
-        let ok = std::process::Command::new(&p)
-            .args(["-c", "import zenoh"])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        if ok {
-            return Some(p);
-        }
-    }
-    if std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1") {
-        panic!(
-            "TRAFFICMESH_REQUIRE_PYTHON=1 but no python with the eclipse-zenoh package (set TRAFFICMESH_PYTHON)"
-        );
-    }
-    eprintln!("NOTICE: skipped: no python with eclipse-zenoh (pip install eclipse-zenoh==1.10.2)");
-    None
-}

@@ -18,6 +18,8 @@ pub enum BenchCommand {
     Tick(TickArgs),
     /// Run the whole cluster with N vehicles; tick rate, tick time, batch latency.
     Cluster(super::bench_cluster::ClusterArgs),
+    /// The cluster with N vehicles and the admin under a fixed rate of REST requests.
+    Admin(super::bench_admin::AdminArgs),
 }
 
 #[derive(Args)]
@@ -74,6 +76,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     let a = match cmd {
         BenchCommand::Tick(a) => a,
         BenchCommand::Cluster(a) => return super::bench_cluster::run(a),
+        BenchCommand::Admin(a) => return super::bench_admin::run(a),
     };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");

@@ -3,14 +3,14 @@
 //! Zenoh: tick rate, tick duration, and latency from the stepper's
 //! publication of a batch to its arrival here; plus what encoding a batch costs.
 
-use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
+
+use super::bench_up::BenchCluster;
 use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
-use trafficmesh_maps::GridOptions;
 use trafficmesh_model::wire::{Clock, VehicleBatch};
 
 #[derive(Args)]
@@ -63,43 +63,10 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     if a.size == 0 || a.vehicles == 0 || !(a.duration.is_finite() && a.duration > 0.0) {
         bail!("--size, --vehicles and --duration must be positive");
     }
-    let dir = tempfile_dir()?;
-    let map = dir.join("grid.map.json");
-    let grid = trafficmesh_maps::grid_map(&GridOptions {
-        size: a.size,
-        ..GridOptions::default()
-    });
-    trafficmesh_maps::write_atomic(&map, serde_json::to_string(&grid)?.as_bytes())?;
-    let port = std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port();
-    let cluster = format!("bench{}", std::process::id());
-    let endpoint = format!("tcp/127.0.0.1:{port}");
-    let config = dir.join("cluster.toml");
-    std::fs::write(
-        &config,
-        format!(
-            "cluster = \"{cluster}\"\nmap = \"{}\"\nendpoint = \"{endpoint}\"\n[stepper]\npopulate = {}\n[spawner]\nmax_vehicles = {}\nspawn_config = \"{}\"\nbranch_csv = \"{}\"\n[pedestrians]\nenabled = false\n[admin]\nenabled = false\n",
-            map.display(),
-            a.vehicles,
-            a.vehicles,
-            dir.join("spawn.json").display(),
-            dir.join("branch.csv").display()
-        ),
-    )?;
-    let log = dir.join("up.log");
-    let mut up = Command::new(std::env::current_exe()?)
-        .args(["up", "--config"])
-        .arg(&config)
-        .stdout(Stdio::null())
-        .stderr(std::fs::File::create(&log)?)
-        .spawn()
-        .context("cannot start `trafficmesh up`")?;
-    let result = measure(&a, &cluster, &endpoint);
-    unsafe { libc::kill(up.id() as i32, libc::SIGTERM) };
-    let _ = up.wait();
-    let report = result.with_context(|| format!("cluster log: {}", log.display()))?;
-    let _ = std::fs::remove_dir_all(&dir);
+    let cluster = BenchCluster::start(a.size, a.vehicles, false)?;
+    let report = measure(&a, &cluster.bus_args())
+        .with_context(|| format!("cluster log: {}", cluster.log.display()))?;
+    drop(cluster);
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {
@@ -130,22 +97,9 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     Ok(())
 }
 
-fn tempfile_dir() -> Result<std::path::PathBuf> {
-    let dir = std::env::temp_dir().join(format!("trafficmesh-bench-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    Ok(dir)
-}
-
-fn measure(a: &ClusterArgs, cluster: &str, endpoint: &str) -> Result<Report> {
-    let args = BusArgs {
-        cluster: cluster.into(),
-        zenoh_config: None,
-        mode: None,
-        connect: vec![endpoint.into()],
-        listen: vec!["tcp/127.0.0.1:0".into()],
-    };
+fn measure(a: &ClusterArgs, args: &BusArgs) -> Result<Report> {
     trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async {
-        let bus = Bus::open(&args, Role::Member, "bench").await?;
+        let bus = Bus::open(args, Role::Member, "bench").await?;
         let keys = bus.keys().clone();
         let vehicles = bus.subscribe(&keys.vehicles()).await?;
         let clock = bus.subscribe(&keys.clock()).await?;
