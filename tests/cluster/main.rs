@@ -502,6 +502,3 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
     );
     assert!(stdout.contains("OK"), "{stdout}\n{stderr}");
 }
-
-/// The virtualenv `.ci/run` makes (TRAFFICMESH_PYTHON), else `python3` if it
-/// has the `zenoh` module; skipped with a notice otherwise unless required.
