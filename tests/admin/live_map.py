@@ -124,10 +124,17 @@ try:
             handle(json.loads(ws.recv()))
     except websocket.WebSocketTimeoutException:
         pass
-    problems += [f"page error: {e}" for e in seen["errors"]]
+    # How well the page keeps up: batches received and frames drawn per second.
+    before = json.loads(evaluate("JSON.stringify(window.trafficmesh)"))
+    time.sleep(3.0)
+    after = json.loads(evaluate("JSON.stringify(window.trafficmesh)"))
+    batches_per_s = (after["batches"] - before["batches"]) / 3.0
+    frames_per_s = (after["frames"] - before["frames"]) / 3.0
+    problems += [f"page error: {e}" for e in after["errors"]]
     if problems:
         fail("\n".join(problems))
-    print(f"OK: {seen['drawnVehicles']} vehicles drawn, {changed} pixels moved in 1 s")
+    print(f"OK: {seen['drawnVehicles']} vehicles drawn, {changed} pixels moved in 1 s, "
+          f"{batches_per_s:.1f} batches/s received, {frames_per_s:.1f} frames/s drawn")
 finally:
     browser.kill()
     browser.wait()

@@ -103,7 +103,8 @@ fn run(args: Args) -> Result<()> {
         let metrics = metrics::install()?;
         let bus = Arc::new(Bus::open_service(&args.bus, Role::Member, "admin").await?);
         let view = Arc::new(view::ClusterView::default());
-        view.follow(bus.clone()).await?;
+        view.follow(bus.clone(), net.light_groups.len(), net.crosswalks.len())
+            .await?;
         let (status_view, bind) = (view.clone(), args.bind.to_string());
         trafficmesh_bus::serve_status(
             bus.clone(),

@@ -43,7 +43,13 @@ impl ClusterView {
     }
 
     /// Subscribes to everything the view holds; the tasks run until the process ends.
-    pub async fn follow(self: &Arc<Self>, bus: Arc<Bus>) -> Result<()> {
+    /// `groups` and `areas` are the map's counts, to know when catching up is done.
+    pub async fn follow(
+        self: &Arc<Self>,
+        bus: Arc<Bus>,
+        groups: usize,
+        areas: usize,
+    ) -> Result<()> {
         let keys = bus.keys().clone();
 
         let vehicles = bus.subscribe_ring(&keys.vehicles(), 1).await?;
@@ -134,11 +140,26 @@ impl ClusterView {
             }
         });
 
-        self.catch_up(&bus).await;
+        // States published before the admin started (or before the services
+        // were up): asked for until every group and area is known.
+        let view = self.clone();
+        tokio::spawn(async move {
+            loop {
+                view.catch_up(&bus).await;
+                let known = {
+                    let v = view.read();
+                    v.lights.len() >= groups && v.occupancy.len() >= areas
+                };
+                if known {
+                    break;
+                }
+                tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+            }
+        });
         Ok(())
     }
 
-    /// Light and crosswalk states published before the admin started.
+    /// The current light and crosswalk states, by query.
     async fn catch_up(&self, bus: &Bus) {
         let keys = bus.keys();
         let timeout = std::time::Duration::from_secs(2);

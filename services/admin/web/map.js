@@ -27,6 +27,9 @@ let batch = null; // { tick, time, count, view: DataView, record }
 let states = { lights: {}, crosswalks: {} };
 const view = { scale: 1, x: 0, y: 0 }; // screen = (world - (x, y)) * scale, y flipped
 let dirty = true;
+// The lanes, drawn once per view (pan, zoom, resize) instead of every frame.
+const lanesLayer = document.createElement("canvas");
+let lanesView = "";
 let selected = null;
 
 function layer(id) {
@@ -129,20 +132,35 @@ function boxCorners(v) {
     [cx - c * hl + s * hw, cy - s * hl - c * hw], [cx - c * hl - s * hw, cy - s * hl + c * hw]];
 }
 
+function worldTransform(c) {
+  c.setTransform(view.scale, 0, 0, -view.scale, -view.x * view.scale, view.y * view.scale);
+}
+
+function drawLanes() {
+  const key = `${canvas.width}x${canvas.height}:${view.scale}:${view.x}:${view.y}`;
+  if (key === lanesView) return;
+  lanesView = key;
+  lanesLayer.width = canvas.width;
+  lanesLayer.height = canvas.height;
+  const c = lanesLayer.getContext("2d");
+  c.fillStyle = "#1b1e23";
+  c.fillRect(0, 0, lanesLayer.width, lanesLayer.height);
+  worldTransform(c);
+  c.lineCap = "round";
+  c.lineJoin = "round";
+  c.lineWidth = Math.max(3.2, 1.5 / view.scale);
+  c.strokeStyle = "#4b525c";
+  c.stroke(lanesPath);
+  c.strokeStyle = "#3a4049";
+  c.stroke(junctionPath);
+}
+
 function draw() {
-  const w = canvas.width, h = canvas.height;
+  drawLanes();
   ctx.setTransform(1, 0, 0, 1, 0, 0);
-  ctx.fillStyle = "#1b1e23";
-  ctx.fillRect(0, 0, w, h);
-  ctx.setTransform(view.scale, 0, 0, -view.scale, -view.x * view.scale, view.y * view.scale);
+  ctx.drawImage(lanesLayer, 0, 0);
+  worldTransform(ctx);
   const px = 1 / view.scale;
-  ctx.lineCap = "round";
-  ctx.lineJoin = "round";
-  ctx.strokeStyle = "#4b525c";
-  ctx.lineWidth = Math.max(3.2, 1.5 * px);
-  ctx.stroke(lanesPath);
-  ctx.strokeStyle = "#3a4049";
-  ctx.stroke(junctionPath);
 
   // Crosswalks: green when clear, red when occupied (the seed's gizmo colours).
   for (const cw of map.crosswalks) {
@@ -185,13 +203,19 @@ function draw() {
     const byMode = MODES.map(() => new Path2D());
     const rays = new Path2D();
     const phases = [];
+    // Zoomed far out a car is under a pixel: draw a marker of fixed screen size instead.
+    const marker = view.scale < 1.2 ? 2.5 * px : 0;
     for (let i = 0; i < batch.count; i++) {
       const v = vehicle(i);
-      const corners = boxCorners(v);
       const path = byMode[v.mode] || byMode[0];
-      path.moveTo(corners[0][0], corners[0][1]);
-      for (let k = 1; k < 4; k++) path.lineTo(corners[k][0], corners[k][1]);
-      path.closePath();
+      if (marker) {
+        path.rect(v.x - marker / 2, v.y - marker / 2, marker, marker);
+      } else {
+        const corners = boxCorners(v);
+        path.moveTo(corners[0][0], corners[0][1]);
+        for (let k = 1; k < 4; k++) path.lineTo(corners[k][0], corners[k][1]);
+        path.closePath();
+      }
       drawn++;
       if (gizmos && layer("showObstacleChecking") && v.check > 0) {
         const c = Math.cos(v.yaw), s = Math.sin(v.yaw);
