@@ -33,6 +33,8 @@ enum Command {
     Sim(commands::sim::SimArgs),
     /// Write an N x N signalised grid map (two lanes per direction).
     GenGrid(commands::gen_grid::GenGridArgs),
+    /// Convert a SUMO network (.net.xml) to the native map format, with a summary.
+    Import(commands::import::ImportArgs),
     /// Start the whole cluster on this machine (every service a child process).
     Up(commands::up::UpArgs),
     /// Print a live one-line summary per second from the bus.
@@ -50,6 +52,7 @@ fn main() -> ExitCode {
     let result = match cli.command {
         Command::Sim(args) => commands::sim::run(args),
         Command::GenGrid(args) => commands::gen_grid::run(args),
+        Command::Import(args) => commands::import::run(args),
         Command::Bench(cmd) => commands::bench::run(cmd),
         Command::Up(args) => commands::up::run(args),
         Command::Watch(args) => commands::watch::run(args),

@@ -1,5 +1,6 @@
 //! File I/O for maps and spawn configs.
 
+use crate::import::Imported;
 use std::fs;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -27,6 +28,11 @@ pub enum FileError {
         path: PathBuf,
         location: String,
         message: String,
+    },
+    #[error("{path}: {source}")]
+    Import {
+        path: PathBuf,
+        source: crate::import::ImportError,
     },
     #[error("{path}: {} problem(s):\n  {}", .problems.len(), .problems.iter().map(|p| p.to_string()).collect::<Vec<_>>().join("\n  "))]
     Invalid {
@@ -111,9 +117,39 @@ pub fn parse_map(path: &Path, text: &str) -> Result<MapFile, FileError> {
     Ok(map)
 }
 
-/// Reads, parses and validates a native `.map.json`.
+/// Reads and validates a map in any supported format: a native `.map.json`, a
+/// SUMO `.net.xml`.
 pub fn load_map(path: &Path) -> Result<MapFile, FileError> {
-    parse_map(path, &read(path)?)
+    Ok(import_map(path)?.map)
+}
+
+/// As `load_map`, with the warnings of a foreign format's import.
+pub fn import_map(path: &Path) -> Result<Imported, FileError> {
+    let text = read(path)?;
+    let file_name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    let stem = file_name.split('.').next().unwrap_or("").to_string();
+    let imported = if file_name.ends_with(".net.xml") {
+        crate::sumo::import(&stem, &text).map_err(|source| FileError::Import {
+            path: path.to_owned(),
+            source,
+        })?
+    } else {
+        return Ok(Imported {
+            map: parse_map(path, &text)?,
+            warnings: Vec::new(),
+        });
+    };
+    imported
+        .map
+        .validate()
+        .map_err(|problems| FileError::Invalid {
+            path: path.to_owned(),
+            problems,
+        })?;
+    Ok(imported)
 }
 
 /// Parses a spawn config; lane names are checked when it is applied to a map.

@@ -1,16 +1,19 @@
 //! Reading and writing trafficmesh's files: native JSON maps (with errors that
 //! name the lane and field), spawn configs (written atomically, previous version
-//! kept), and the signalised-grid generator. Importers of foreign formats (SUMO,
-//! Lanelet2) will live here too.
+//! kept), the signalised-grid generator, and importers of foreign formats
+//! (SUMO `.net.xml`).
 
 pub mod files;
 pub mod grid;
+pub mod import;
+mod sumo;
 
 pub use files::{
-    FileError, load_map, load_spawn_config, parse_map, parse_spawn_config, save_spawn_config,
-    write_atomic,
+    FileError, import_map, load_map, load_spawn_config, parse_map, parse_spawn_config,
+    save_spawn_config, write_atomic,
 };
 pub use grid::{GridOptions, grid_map};
+pub use import::{ImportError, Imported};
 
 /// Loads a map file and compiles it into the simulation's lane network, with
 /// every problem of the start-up checklist named.

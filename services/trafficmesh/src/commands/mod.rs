@@ -5,6 +5,7 @@ mod bench_up;
 pub mod cluster_config;
 pub mod ego;
 pub mod gen_grid;
+pub mod import;
 pub mod sim;
 pub mod up;
 pub mod watch;

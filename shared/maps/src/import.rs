@@ -1,0 +1,68 @@
+//! Foreign map formats: what an importer returns, its errors (with the line
+//! and element), and the XML attribute helpers the importers share.
+
+use roxmltree::{Document, Node};
+use trafficmesh_model::map::MapFile;
+
+/// A map read from a foreign file, and what could not be carried over.
+#[derive(Debug)]
+pub struct Imported {
+    pub map: MapFile,
+    /// One line each, naming the element (id) it concerns.
+    pub warnings: Vec<String>,
+}
+
+/// Why a foreign file cannot be read: the line (when known) and the element.
+#[derive(Debug, thiserror::Error)]
+#[error("{}{message}", line.map(|l| format!("line {l}: ")).unwrap_or_default())]
+pub struct ImportError {
+    pub line: Option<u32>,
+    pub message: String,
+}
+
+impl ImportError {
+    pub fn xml(e: roxmltree::Error) -> ImportError {
+        ImportError {
+            line: Some(e.pos().row),
+            message: format!("not well-formed XML: {e}"),
+        }
+    }
+
+    /// A problem with one element, located by its start.
+    pub fn at(doc: &Document, node: Node, message: &str) -> ImportError {
+        let id = node
+            .attribute("id")
+            .map(|id| format!(" id='{id}'"))
+            .unwrap_or_default();
+        ImportError {
+            line: Some(doc.text_pos_at(node.range().start).row),
+            message: format!("<{}{id}>: {message}", node.tag_name().name()),
+        }
+    }
+
+    pub fn plain(message: String) -> ImportError {
+        ImportError {
+            line: None,
+            message,
+        }
+    }
+}
+
+pub fn attr<'a>(doc: &Document, node: Node<'a, '_>, name: &str) -> Result<&'a str, ImportError> {
+    node.attribute(name)
+        .ok_or_else(|| ImportError::at(doc, node, &format!("missing attribute '{name}'")))
+}
+
+pub fn attr_f64(doc: &Document, node: Node, name: &str) -> Result<f64, ImportError> {
+    let text = attr(doc, node, name)?;
+    text.parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| {
+            ImportError::at(
+                doc,
+                node,
+                &format!("attribute '{name}': '{text}' is not a finite number"),
+            )
+        })
+}

@@ -1,0 +1,191 @@
+//! Map import: SUMO networks against SUMO's own reader, imported signal
+//! programs obeyed by the simulation, and broken files rejected with the
+//! line and element named. Third-party maps are read from ../shared/maps.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use trafficmesh_model::LightColor;
+use trafficmesh_sim::{World, WorldConfig};
+
+fn repo() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
+}
+
+/// `../shared/maps/<name>`; a notice and None when the folder is absent,
+/// unless TRAFFICMESH_REQUIRE_SHARED=1 (CI) makes that a failure.
+fn shared_map(name: &str) -> Option<PathBuf> {
+    let path = repo().join("../shared/maps").join(name);
+    if path.exists() {
+        return Some(path);
+    }
+    if std::env::var("TRAFFICMESH_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+        panic!(
+            "TRAFFICMESH_REQUIRE_SHARED=1 but {} is missing",
+            path.display()
+        );
+    }
+    eprintln!("NOTICE: skipped: {} is absent", path.display());
+    None
+}
+
+fn python_with(module: &str) -> Option<String> {
+    let candidates = std::env::var("TRAFFICMESH_PYTHON")
+        .into_iter()
+        .chain(["python3".to_string()]);
+    for p in candidates {
+        let ok = Command::new(&p)
+            .args(["-c", &format!("import {module}")])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if ok {
+            return Some(p);
+        }
+    }
+    if std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1") {
+        panic!("TRAFFICMESH_REQUIRE_PYTHON=1 but no python can import {module}");
+    }
+    eprintln!("NOTICE: skipped: no python with {module} (pip install {module})");
+    None
+}
+
+fn import(file: &Path, out: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .arg("import")
+        .arg(file)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
+#[test]
+fn cross_net_imports_as_sumolib_reads_it() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let Some(python) = python_with("sumolib") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cross.map.json");
+    let imported = import(&net, &out);
+    assert!(
+        imported.status.success(),
+        "{}",
+        String::from_utf8_lossy(&imported.stderr)
+    );
+    let summary = String::from_utf8_lossy(&imported.stdout);
+    assert!(summary.contains("4 light groups"), "{summary}");
+    assert!(
+        summary.contains("U-turn"),
+        "the dropped U-turns are reported: {summary}"
+    );
+    let check = Command::new(python)
+        .arg(repo().join("tests/maps/check_sumo_import.py"))
+        .arg(&net)
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success() && stdout.contains("OK"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+}
+
+/// Vehicles enter the signalised junction of cross.net.xml only on green or
+/// yellow of the imported program, and every signal link lets some through.
+#[test]
+fn vehicles_on_cross_net_obey_the_imported_signal_program() {
+    let Some(path) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let net = trafficmesh_maps::load_network(&path).unwrap();
+    let junction_lanes: Vec<(u32, usize)> = (0..4)
+        .map(|k| {
+            let lane = net.lane_id(&format!(":junction_{k}_0")).unwrap();
+            (lane, net.lane(lane).light.unwrap() as usize)
+        })
+        .collect();
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            seed: 3,
+            max_vehicles: 80,
+            ..WorldConfig::default()
+        },
+    );
+    let mut on_junction: std::collections::HashSet<u64> = Default::default();
+    let mut entered = [0usize; 4];
+    for _ in 0..(600.0 / 0.02) as usize {
+        // The colours the vehicles see during the coming tick.
+        let colors: Vec<LightColor> = junction_lanes
+            .iter()
+            .map(|&(_, g)| world.lights().state(g).color)
+            .collect();
+        world.step();
+        for v in world.vehicles() {
+            let Some(k) = junction_lanes.iter().position(|&(l, _)| l == v.path[0]) else {
+                continue;
+            };
+            if on_junction.insert(v.id) {
+                entered[k] += 1;
+                assert_ne!(
+                    colors[k],
+                    LightColor::Red,
+                    "vehicle {} entered :junction_{k}_0 on red at t={:.2}",
+                    v.id,
+                    world.time()
+                );
+            }
+        }
+    }
+    assert!(
+        entered.iter().all(|&n| n >= 5),
+        "every approach gets green: {entered:?}"
+    );
+}
+
+#[test]
+fn broken_sumo_files_are_rejected_naming_line_and_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.map.json");
+
+    let bad = import(&repo().join("tests/maps/bad_lane.net.xml"), &out);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("line 9") && err.contains("<lane id='b_0'>") && err.contains("'shape'"),
+        "{err}"
+    );
+
+    let garbage = dir.path().join("garbage.net.xml");
+    std::fs::write(
+        &garbage,
+        "<net><edge id='a'>\n<lane id='a_0' shape='0,0 1,1'></edge></net>",
+    )
+    .unwrap();
+    let bad = import(&garbage, &out);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("line 2") && err.contains("not well-formed XML"),
+        "{err}"
+    );
+
+    if let Some(net) = shared_map("cross.net.xml") {
+        let text = std::fs::read_to_string(net).unwrap();
+        let truncated = dir.path().join("truncated.net.xml");
+        std::fs::write(&truncated, &text[..text.len() / 2]).unwrap();
+        let bad = import(&truncated, &out);
+        let err = String::from_utf8_lossy(&bad.stderr);
+        assert_eq!(bad.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("truncated.net.xml") && err.contains("line "),
+            "{err}"
+        );
+    }
+    assert!(!out.exists(), "nothing is written for a broken file");
+}
