@@ -2,6 +2,9 @@
 //! programs obeyed by the simulation, and broken files rejected with the
 //! line and element named. Third-party maps are read from ../shared/maps.
 
+#[path = "../../shared/sim/tests/support/mod.rs"]
+mod sim_support;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -188,4 +191,123 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
         );
     }
     assert!(!out.exists(), "nothing is written for a broken file");
+}
+
+fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
+    let Some(osm) = shared_map(file) else { return };
+    let Some(python) = python_with("xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("map.json");
+    let imported = import(&osm, &out);
+    assert!(
+        imported.status.success(),
+        "{}",
+        String::from_utf8_lossy(&imported.stderr)
+    );
+    let summary = String::from_utf8_lossy(&imported.stdout);
+    assert!(
+        summary.contains("synthesised two-phase program"),
+        "the synthesised timing is said: {summary}"
+    );
+    let check = Command::new(python)
+        .arg(repo().join("tests/maps/check_lanelet2_import.py"))
+        .arg(&osm)
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success() && stdout.contains("OK"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
+
+    if !ten_minutes_without_overlaps {
+        return;
+    }
+    // Ten simulated minutes without two vehicles overlapping.
+    let net = trafficmesh_maps::load_network(&osm).unwrap();
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            seed: 5,
+            max_vehicles: 40,
+            ..WorldConfig::default()
+        },
+    );
+    let mut spawned = 0;
+    while world.time() < 600.0 {
+        world.step();
+        spawned = spawned.max(world.vehicles().iter().map(|v| v.id + 1).max().unwrap_or(0));
+        if world.ticks().is_multiple_of(5) {
+            let pairs = sim_support::overlapping_pairs(world.vehicles(), 0.1);
+            let describe = |id: u64| {
+                let v = world.vehicle(id).unwrap();
+                let lanes: Vec<&str> = v
+                    .path
+                    .iter()
+                    .map(|&l| world.network().lane(l).name.as_str())
+                    .collect();
+                format!(
+                    "#{id} on {lanes:?} s={:.1} v={:.1} ({:.1}, {:.1})",
+                    v.s, v.speed, v.pose.x, v.pose.y
+                )
+            };
+            assert!(
+                pairs.is_empty(),
+                "{file}: overlapping vehicles at t={:.2}: {}",
+                world.time(),
+                pairs
+                    .iter()
+                    .map(|&(a, b)| format!("{} / {}", describe(a), describe(b)))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            );
+        }
+    }
+    assert!(
+        spawned >= 40,
+        "{file}: traffic flows ({spawned} vehicles in 10 minutes)"
+    );
+}
+
+#[test]
+fn autoware_lanelet2_map_imports_and_runs_ten_minutes_without_overlaps() {
+    check_lanelet2("autoware_intersection_lanelet2_map.osm", true);
+}
+
+/// The import only: on this map vehicles still meet where lanelets cross or
+/// merge without junction tags (no conflict zones are built there), so its
+/// ten-minute run fails today; issue 5 stays open on it.
+#[test]
+fn lanelet2_mapping_example_imports_every_lanelet_light_and_crosswalk() {
+    check_lanelet2("mapping_example.osm", false);
+}
+
+#[test]
+fn broken_lanelet2_files_are_rejected_naming_line_and_element() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("x.map.json");
+    let bad = import(&repo().join("tests/maps/missing_way.osm"), &out);
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("line 12") && err.contains("<relation id='10'>") && err.contains("way 99"),
+        "{err}"
+    );
+    if let Some(osm) = shared_map("mapping_example.osm") {
+        let text = std::fs::read_to_string(osm).unwrap();
+        let truncated = dir.path().join("truncated.osm");
+        std::fs::write(&truncated, &text[..text.len() / 3]).unwrap();
+        let bad = import(&truncated, &out);
+        let err = String::from_utf8_lossy(&bad.stderr);
+        assert_eq!(bad.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("truncated.osm") && err.contains("not well-formed XML"),
+            "{err}"
+        );
+    }
+    assert!(!out.exists());
 }

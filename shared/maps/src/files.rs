@@ -118,7 +118,7 @@ pub fn parse_map(path: &Path, text: &str) -> Result<MapFile, FileError> {
 }
 
 /// Reads and validates a map in any supported format: a native `.map.json`, a
-/// SUMO `.net.xml`.
+/// SUMO `.net.xml`, a Lanelet2 `.osm`.
 pub fn load_map(path: &Path) -> Result<MapFile, FileError> {
     Ok(import_map(path)?.map)
 }
@@ -133,6 +133,11 @@ pub fn import_map(path: &Path) -> Result<Imported, FileError> {
     let stem = file_name.split('.').next().unwrap_or("").to_string();
     let imported = if file_name.ends_with(".net.xml") {
         crate::sumo::import(&stem, &text).map_err(|source| FileError::Import {
+            path: path.to_owned(),
+            source,
+        })?
+    } else if file_name.ends_with(".osm") {
+        crate::lanelet2::import(&stem, &text).map_err(|source| FileError::Import {
             path: path.to_owned(),
             source,
         })?

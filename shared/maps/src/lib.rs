@@ -1,11 +1,12 @@
 //! Reading and writing trafficmesh's files: native JSON maps (with errors that
 //! name the lane and field), spawn configs (written atomically, previous version
 //! kept), the signalised-grid generator, and importers of foreign formats
-//! (SUMO `.net.xml`).
+//! (SUMO `.net.xml`, Lanelet2 `.osm`).
 
 pub mod files;
 pub mod grid;
 pub mod import;
+mod lanelet2;
 mod sumo;
 
 pub use files::{

@@ -103,6 +103,18 @@ impl World {
         {
             return false;
         }
+        // A lane shorter than the new body: it reaches onto the next lanes too.
+        let overflow = front + CLEARANCE - l.length();
+        if overflow > 0.0
+            && l.next.iter().any(|&n| {
+                self.index
+                    .on_lane(n)
+                    .iter()
+                    .any(|o| o.rear < overflow && o.front > -CLEARANCE)
+            })
+        {
+            return false;
+        }
         // Bodies of other lanes standing in this lane's conflict zones near its start.
         if self
             .index

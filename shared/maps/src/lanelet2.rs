@@ -1,0 +1,659 @@
+//! Lanelet2 `.osm` import: vehicle lanelets become lanes (centreline from the
+//! left and right bounds), successors come from shared bound end points,
+//! `speed_limit` and `turn_direction` tags carry over, traffic-light
+//! regulatory elements become light groups with their stop lines,
+//! `right_of_way` elements give who yields to whom, and crosswalk lanelets
+//! become crosswalk areas with stop points where lanes enter them.
+//!
+//! Positions: `local_x`/`local_y` when every node has them (Autoware maps), else
+//! lat/lon projected onto a plane tangent at the map's centre. Lanelet2 has no
+//! signal timing: each intersection gets a synthesised two-phase program.
+
+use std::collections::{BTreeMap, HashMap};
+
+use roxmltree::{Document, Node};
+use trafficmesh_model::enums::TurnDirection;
+use trafficmesh_model::map::{
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
+    SimulatorDef, StopPointDef,
+};
+
+use crate::import::{ImportError, Imported, attr};
+
+const EARTH_RADIUS: f64 = 6_371_000.0;
+/// Lanelet2's default for urban roads when a lanelet has no speed_limit, km/h.
+const DEFAULT_SPEED_KMH: f64 = 50.0;
+/// Stop lines of one intersection's lights lie within this of each other, metres.
+const INTERSECTION_RADIUS: f64 = 60.0;
+/// The synthesised program: green and yellow of each of the two phases, seconds.
+const GREEN: f64 = 30.0;
+const YELLOW: f64 = 3.0;
+/// Vehicles stop this far before a crosswalk's edge, metres.
+const CROSSWALK_STOP_BACK: f64 = 1.0;
+
+type Xy = [f64; 3];
+
+struct Way<'a> {
+    nodes: Vec<i64>,
+    node: Node<'a, 'a>,
+}
+
+struct Relation<'a> {
+    id: i64,
+    node: Node<'a, 'a>,
+    tags: HashMap<&'a str, &'a str>,
+    members: Vec<(&'a str, &'a str, i64)>,
+}
+
+impl Relation<'_> {
+    fn tag(&self, k: &str) -> Option<&str> {
+        self.tags.get(k).copied()
+    }
+    fn ways(&self, role: &str) -> impl Iterator<Item = i64> + '_ {
+        let role = role.to_string();
+        self.members
+            .iter()
+            .filter(move |(t, r, _)| *t == "way" && *r == role)
+            .map(|m| m.2)
+    }
+    fn relations(&self, role: &str) -> impl Iterator<Item = i64> + '_ {
+        let role = role.to_string();
+        self.members
+            .iter()
+            .filter(move |(t, r, _)| *t == "relation" && *r == role)
+            .map(|m| m.2)
+    }
+}
+
+/// One vehicle lanelet on its way to becoming a lane.
+struct Lanelet {
+    id: i64,
+    centre: Vec<Xy>,
+    width: f64,
+    start: (i64, i64),
+    end: (i64, i64),
+    speed: f64,
+    turn: Option<TurnDirection>,
+    regulatory: Vec<i64>,
+}
+
+fn id_of(doc: &Document, n: Node, name: &str) -> Result<i64, ImportError> {
+    let text = attr(doc, n, name)?;
+    text.parse().map_err(|_| {
+        ImportError::at(
+            doc,
+            n,
+            &format!("attribute '{name}': '{text}' is not an id"),
+        )
+    })
+}
+
+fn tags<'a>(n: Node<'a, 'a>) -> HashMap<&'a str, &'a str> {
+    n.children()
+        .filter(|c| c.has_tag_name("tag"))
+        .filter_map(|t| Some((t.attribute("k")?, t.attribute("v")?)))
+        .collect()
+}
+
+fn num(doc: &Document, n: Node, text: &str, what: &str) -> Result<f64, ImportError> {
+    text.trim()
+        .parse::<f64>()
+        .ok()
+        .filter(|v| v.is_finite())
+        .ok_or_else(|| ImportError::at(doc, n, &format!("{what}: '{text}' is not a number")))
+}
+
+pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
+    let doc = Document::parse(text).map_err(ImportError::xml)?;
+    let root = doc.root_element();
+    if root.tag_name().name() != "osm" {
+        return Err(ImportError::at(
+            &doc,
+            root,
+            "the root element is not <osm> (not a Lanelet2 map)",
+        ));
+    }
+    let mut warnings = Vec::new();
+    let points = node_positions(&doc, root, &mut warnings)?;
+    let mut ways: HashMap<i64, Way> = HashMap::new();
+    for w in root.children().filter(|n| n.has_tag_name("way")) {
+        let nodes = w
+            .children()
+            .filter(|c| c.has_tag_name("nd"))
+            .map(|nd| id_of(&doc, nd, "ref"))
+            .collect::<Result<Vec<_>, _>>()?;
+        ways.insert(id_of(&doc, w, "id")?, Way { nodes, node: w });
+    }
+    let mut relations: BTreeMap<i64, Relation> = BTreeMap::new();
+    for r in root.children().filter(|n| n.has_tag_name("relation")) {
+        let members = r
+            .children()
+            .filter(|c| c.has_tag_name("member"))
+            .map(|m| {
+                Ok((
+                    attr(&doc, m, "type")?,
+                    m.attribute("role").unwrap_or(""),
+                    id_of(&doc, m, "ref")?,
+                ))
+            })
+            .collect::<Result<Vec<_>, ImportError>>()?;
+        let id = id_of(&doc, r, "id")?;
+        relations.insert(
+            id,
+            Relation {
+                id,
+                node: r,
+                tags: tags(r),
+                members,
+            },
+        );
+    }
+    let geometry = |r: &Relation, role: &str| -> Result<(Vec<i64>, Vec<Xy>), ImportError> {
+        let way_id = r.ways(role).next().ok_or_else(|| {
+            ImportError::at(&doc, r.node, &format!("lanelet without a '{role}' way"))
+        })?;
+        let way = ways.get(&way_id).ok_or_else(|| {
+            ImportError::at(
+                &doc,
+                r.node,
+                &format!("'{role}' way {way_id} is not in the file"),
+            )
+        })?;
+        let xy = way
+            .nodes
+            .iter()
+            .map(|n| {
+                points.get(n).copied().ok_or_else(|| {
+                    ImportError::at(&doc, way.node, &format!("node {n} is not in the file"))
+                })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        if xy.len() < 2 {
+            return Err(ImportError::at(
+                &doc,
+                way.node,
+                "a bound needs at least two nodes",
+            ));
+        }
+        Ok((way.nodes.clone(), xy))
+    };
+
+    let mut lanelets: Vec<Lanelet> = Vec::new();
+    let mut crosswalks: Vec<(i64, Vec<Xy>)> = Vec::new();
+    let mut skipped: BTreeMap<String, usize> = BTreeMap::new();
+    for r in relations
+        .values()
+        .filter(|r| r.tag("type") == Some("lanelet"))
+    {
+        let subtype = r.tag("subtype").unwrap_or("road");
+        let (left_ids, left) = geometry(r, "left")?;
+        let (mut right_ids, mut right) = geometry(r, "right")?;
+        // Bounds run in the driving direction; a right bound drawn the other way is turned.
+        if dist(left[0], right[0]) + dist(left[left.len() - 1], right[right.len() - 1])
+            > dist(left[0], right[right.len() - 1]) + dist(left[left.len() - 1], right[0])
+        {
+            right.reverse();
+            right_ids.reverse();
+        }
+        match subtype {
+            "road" | "highway" | "play_street" | "emergency_lane" | "bus_lane" => {}
+            "crosswalk" => {
+                let mut polygon = left.clone();
+                polygon.extend(right.iter().rev());
+                crosswalks.push((r.id, polygon));
+                continue;
+            }
+            other => {
+                *skipped.entry(other.to_string()).or_default() += 1;
+                continue;
+            }
+        }
+        let (centre, width) = centreline(&left, &right);
+        let speed = match r.tag("speed_limit") {
+            Some(s) => num(
+                &doc,
+                r.node,
+                s.split_whitespace().next().unwrap_or(s),
+                "tag 'speed_limit'",
+            )?,
+            None => DEFAULT_SPEED_KMH,
+        } / 3.6;
+        let turn = r.tag("turn_direction").map(|t| match t {
+            "left" => TurnDirection::Left,
+            "right" => TurnDirection::Right,
+            _ => TurnDirection::Straight,
+        });
+        lanelets.push(Lanelet {
+            id: r.id,
+            centre,
+            width,
+            start: (left_ids[0], right_ids[0]),
+            end: (*left_ids.last().unwrap(), *right_ids.last().unwrap()),
+            speed,
+            turn,
+            regulatory: r.relations("regulatory_element").collect(),
+        });
+    }
+    for (subtype, n) in &skipped {
+        warnings.push(format!(
+            "{n} lanelet(s) of subtype '{subtype}' not imported (not for cars)"
+        ));
+    }
+
+    let lane_name = |id: i64| format!("ll_{id}");
+    let index: HashMap<i64, usize> = lanelets
+        .iter()
+        .enumerate()
+        .map(|(i, l)| (l.id, i))
+        .collect();
+    let successors = successors(&lanelets);
+    let mut predecessors = vec![Vec::new(); lanelets.len()];
+    for (i, next) in successors.iter().enumerate() {
+        for &n in next {
+            predecessors[n].push(i);
+        }
+    }
+    let mut lanes: Vec<LaneDef> = lanelets
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            // Junction lanelets: tagged with a turn direction (Autoware), or
+            // where lanes diverge or merge.
+            let diverges = predecessors[i].iter().any(|&p| successors[p].len() > 1);
+            let merges = successors[i].iter().any(|&n| predecessors[n].len() > 1);
+            LaneDef {
+                name: lane_name(l.id),
+                waypoints: l.centre.iter().map(|p| Point(*p)).collect(),
+                width: l.width,
+                speed_limit: l.speed,
+                next: successors[i]
+                    .iter()
+                    .map(|&n| lane_name(lanelets[n].id))
+                    .collect(),
+                prev: Vec::new(),
+                intersection: l.turn.is_some() || diverges || merges,
+                turn_direction: l.turn.unwrap_or_default(),
+                stop_line: None,
+                traffic_light: None,
+                right_of_way: Vec::new(),
+            }
+        })
+        .collect();
+
+    // Traffic lights: one group per regulatory element, on the lanelets that refer to it.
+    let mut light_lanes: BTreeMap<i64, Vec<usize>> = BTreeMap::new();
+    for (i, l) in lanelets.iter().enumerate() {
+        for reg in &l.regulatory {
+            let Some(r) = relations.get(reg) else {
+                warnings.push(format!(
+                    "lanelet {}: regulatory element {reg} is not in the file",
+                    l.id
+                ));
+                continue;
+            };
+            match r.tag("subtype") {
+                Some("traffic_light") => {
+                    let lane = &mut lanes[i];
+                    if lane.traffic_light.is_some() {
+                        warnings.push(format!(
+                            "lanelet {}: a second traffic light ({reg}) ignored",
+                            l.id
+                        ));
+                        continue;
+                    }
+                    lane.traffic_light = Some(format!("tl_{reg}"));
+                    let stop = r
+                        .ways("ref_line")
+                        .next()
+                        .and_then(|w| ways.get(&w))
+                        .and_then(|w| {
+                            Some([
+                                Point(*points.get(w.nodes.first()?)?),
+                                Point(*points.get(w.nodes.last()?)?),
+                            ])
+                        });
+                    lane.stop_line = Some(stop.unwrap_or_else(|| across_end(&l.centre, l.width)));
+                    light_lanes.entry(*reg).or_default().push(i);
+                }
+                Some("right_of_way") => {}
+                _ => {}
+            }
+        }
+    }
+    let light_groups = synthesise_programs(&lanelets, &lanes, &light_lanes, &mut warnings);
+
+    // right_of_way elements: the yield lanelets yield to the right_of_way ones.
+    for r in relations
+        .values()
+        .filter(|r| r.tag("subtype") == Some("right_of_way"))
+    {
+        let priority: Vec<String> = r
+            .relations("right_of_way")
+            .filter(|id| index.contains_key(id))
+            .map(lane_name)
+            .collect();
+        for y in r.relations("yield").filter_map(|id| index.get(&id)) {
+            for p in &priority {
+                if !lanes[*y].right_of_way.contains(p) {
+                    lanes[*y].right_of_way.push(p.clone());
+                }
+            }
+        }
+    }
+
+    let crosswalks = crosswalks
+        .into_iter()
+        .map(|(id, polygon)| {
+            let stops = crosswalk_stops(&polygon, &lanelets);
+            if stops.is_empty() {
+                warnings.push(format!(
+                    "crosswalk lanelet {id}: no lane crosses it; it stops nobody"
+                ));
+            }
+            CrosswalkDef {
+                name: format!("cw_{id}"),
+                area: CrosswalkArea::Polygon {
+                    points: polygon.into_iter().map(Point).collect(),
+                },
+                stop_points: stops,
+                max_detection_distance: 40.0,
+                forward_angle_tolerance_deg: 80.0,
+                stop_buffer: 1.5,
+                enable_debug_logs: false,
+                config: None,
+            }
+        })
+        .collect();
+
+    // Spawn lanes: the lanelets nothing leads into.
+    let mut sources: Vec<String> = lanes
+        .iter()
+        .zip(&predecessors)
+        .filter(|(l, p)| p.is_empty() && !l.intersection)
+        .map(|(l, _)| l.name.clone())
+        .collect();
+    if sources.is_empty() {
+        sources = lanes
+            .iter()
+            .filter(|l| !l.intersection)
+            .map(|l| l.name.clone())
+            .collect();
+    }
+    Ok(Imported {
+        map: MapFile {
+            format: trafficmesh_model::map::MAP_FORMAT.to_string(),
+            name: format!("{name} (Lanelet2)"),
+            lanes,
+            light_groups,
+            crosswalks,
+            zebra_configs: Vec::new(),
+            traffic_simulators: vec![SimulatorDef::Random {
+                lanes: sources,
+                prefabs: trafficmesh_model::catalog::builtin_names()
+                    .map(String::from)
+                    .collect(),
+                maximum_spawns: 0,
+                enabled: true,
+                spawn_attempts_per_tick: 1,
+            }],
+        },
+        warnings,
+    })
+}
+
+fn node_positions(
+    doc: &Document,
+    root: Node,
+    warnings: &mut Vec<String>,
+) -> Result<HashMap<i64, Xy>, ImportError> {
+    let mut local: HashMap<i64, Xy> = HashMap::new();
+    let mut geo: HashMap<i64, (f64, f64, f64)> = HashMap::new();
+    let mut all_local = true;
+    for n in root.children().filter(|n| n.has_tag_name("node")) {
+        let id = id_of(doc, n, "id")?;
+        let t = tags(n);
+        let ele = t
+            .get("ele")
+            .map(|e| num(doc, n, e, "tag 'ele'"))
+            .transpose()?
+            .unwrap_or(0.0);
+        match (t.get("local_x"), t.get("local_y")) {
+            (Some(x), Some(y)) => {
+                local.insert(
+                    id,
+                    [
+                        num(doc, n, x, "tag 'local_x'")?,
+                        num(doc, n, y, "tag 'local_y'")?,
+                        ele,
+                    ],
+                );
+            }
+            _ => all_local = false,
+        }
+        let lat = num(doc, n, attr(doc, n, "lat")?, "attribute 'lat'")?;
+        let lon = num(doc, n, attr(doc, n, "lon")?, "attribute 'lon'")?;
+        geo.insert(id, (lat, lon, ele));
+    }
+    if all_local && !local.is_empty() {
+        return Ok(local);
+    }
+    // A plane tangent at the centre: metres east and north of it.
+    let count = geo.len().max(1) as f64;
+    let lat0 = geo.values().map(|g| g.0).sum::<f64>() / count;
+    let lon0 = geo.values().map(|g| g.1).sum::<f64>() / count;
+    warnings.push(format!(
+        "nodes have no local_x/local_y: lat/lon projected onto a plane tangent at {lat0:.6}, {lon0:.6}"
+    ));
+    let k = lat0.to_radians().cos();
+    Ok(geo
+        .into_iter()
+        .map(|(id, (lat, lon, ele))| {
+            (
+                id,
+                [
+                    EARTH_RADIUS * k * (lon - lon0).to_radians(),
+                    EARTH_RADIUS * (lat - lat0).to_radians(),
+                    ele,
+                ],
+            )
+        })
+        .collect())
+}
+
+fn dist(a: Xy, b: Xy) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
+}
+
+/// The point at fraction t of a polyline's length.
+fn at_fraction(line: &[Xy], t: f64) -> Xy {
+    let total: f64 = line.windows(2).map(|w| dist(w[0], w[1])).sum();
+    let mut left = t * total;
+    for w in line.windows(2) {
+        let d = dist(w[0], w[1]);
+        if left <= d && d > 0.0 {
+            let f = left / d;
+            return [0, 1, 2].map(|k| w[0][k] + (w[1][k] - w[0][k]) * f);
+        }
+        left -= d;
+    }
+    line[line.len() - 1]
+}
+
+/// Midpoints of the two bounds sampled at the same length fractions, and the mean width.
+fn centreline(left: &[Xy], right: &[Xy]) -> (Vec<Xy>, f64) {
+    let n = left.len().max(right.len()).clamp(2, 200);
+    let mut centre: Vec<Xy> = Vec::with_capacity(n);
+    let mut width = 0.0;
+    for i in 0..n {
+        let t = i as f64 / (n - 1) as f64;
+        let (a, b) = (at_fraction(left, t), at_fraction(right, t));
+        width += dist(a, b);
+        let p = [0, 1, 2].map(|k| (a[k] + b[k]) / 2.0);
+        if centre.last().is_none_or(|q| dist(*q, p) > 1e-6) {
+            centre.push(p);
+        }
+    }
+    if centre.len() < 2 {
+        centre.push([centre[0][0] + 0.2, centre[0][1], centre[0][2]]);
+    }
+    (centre, (width / n as f64).max(1.0))
+}
+
+/// Successors share the end nodes of both bounds; lanelets whose bounds were
+/// drawn with separate nodes are joined when their centrelines meet (0.5 m).
+fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
+    let mut by_start: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    for (i, l) in lanelets.iter().enumerate() {
+        by_start.entry(l.start).or_default().push(i);
+    }
+    lanelets
+        .iter()
+        .enumerate()
+        .map(|(i, l)| {
+            let mut next: Vec<usize> = by_start.get(&l.end).cloned().unwrap_or_default();
+            if next.is_empty() {
+                let end = l.centre[l.centre.len() - 1];
+                next = lanelets
+                    .iter()
+                    .enumerate()
+                    .filter(|(j, m)| *j != i && dist(m.centre[0], end) < 0.5)
+                    .map(|(j, _)| j)
+                    .collect();
+            }
+            next.retain(|&j| j != i);
+            next
+        })
+        .collect()
+}
+
+fn across_end(centre: &[Xy], width: f64) -> [Point; 2] {
+    let (a, b) = (centre[centre.len() - 2], centre[centre.len() - 1]);
+    let d = dist(a, b).max(1e-9);
+    let (nx, ny) = (
+        -(b[1] - a[1]) / d * width / 2.0,
+        (b[0] - a[0]) / d * width / 2.0,
+    );
+    [
+        Point([b[0] + nx, b[1] + ny, b[2]]),
+        Point([b[0] - nx, b[1] - ny, b[2]]),
+    ]
+}
+
+/// Two phases per intersection: lights whose approach runs along the first
+/// light's axis (within 45°) get green first, the crossing axis after them.
+fn synthesise_programs(
+    lanelets: &[Lanelet],
+    lanes: &[LaneDef],
+    light_lanes: &BTreeMap<i64, Vec<usize>>,
+    warnings: &mut Vec<String>,
+) -> Vec<LightGroupDef> {
+    if light_lanes.is_empty() {
+        return Vec::new();
+    }
+    let info: Vec<(i64, Xy, f64)> = light_lanes
+        .iter()
+        .map(|(reg, ls)| {
+            let l = &lanelets[ls[0]];
+            let stop = lanes[ls[0]].stop_line.unwrap();
+            let mid = [0, 1, 2].map(|k| (stop[0].0[k] + stop[1].0[k]) / 2.0);
+            let (a, b) = (l.centre[l.centre.len() - 2], l.centre[l.centre.len() - 1]);
+            (*reg, mid, (b[1] - a[1]).atan2(b[0] - a[0]))
+        })
+        .collect();
+    // Intersections: lights whose stop lines are near each other, transitively.
+    let mut cluster: Vec<usize> = (0..info.len()).collect();
+    fn find(c: &mut [usize], i: usize) -> usize {
+        if c[i] != i {
+            c[i] = find(c, c[i]);
+        }
+        c[i]
+    }
+    for i in 0..info.len() {
+        for j in i + 1..info.len() {
+            if dist(info[i].1, info[j].1) < INTERSECTION_RADIUS {
+                let (a, b) = (find(&mut cluster, i), find(&mut cluster, j));
+                cluster[a] = b;
+            }
+        }
+    }
+    let mut axis: HashMap<usize, f64> = HashMap::new();
+    let cycle = 2.0 * (GREEN + YELLOW);
+    let groups = info
+        .iter()
+        .enumerate()
+        .map(|(i, (reg, _, heading))| {
+            let c = find(&mut cluster, i);
+            let reference = *axis.entry(c).or_insert(*heading);
+            let d = (heading - reference).rem_euclid(std::f64::consts::PI);
+            let across =
+                (std::f64::consts::FRAC_PI_4..=3.0 * std::f64::consts::FRAC_PI_4).contains(&d);
+            LightGroupDef {
+                name: format!("tl_{reg}"),
+                program: LightProgram {
+                    green: GREEN,
+                    yellow: YELLOW,
+                    red: cycle - GREEN - YELLOW,
+                    offset: if across { GREEN + YELLOW } else { 0.0 },
+                },
+            }
+        })
+        .collect();
+    let intersections = (0..info.len())
+        .filter(|&i| find(&mut cluster, i) == i)
+        .count();
+    warnings.push(format!(
+        "Lanelet2 has no signal timing: {} light(s) at {intersections} intersection(s) got a synthesised two-phase program ({GREEN} s green, {YELLOW} s yellow per approach axis)",
+        info.len()
+    ));
+    groups
+}
+
+/// Where each lane's centreline enters the crosswalk polygon, set back a metre,
+/// with the lane's heading there.
+fn crosswalk_stops(polygon: &[Xy], lanelets: &[Lanelet]) -> Vec<StopPointDef> {
+    let inside = |p: Xy| {
+        let mut c = false;
+        let n = polygon.len();
+        for i in 0..n {
+            let (a, b) = (polygon[i], polygon[(i + n - 1) % n]);
+            if (a[1] > p[1]) != (b[1] > p[1])
+                && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
+            {
+                c = !c;
+            }
+        }
+        c
+    };
+    let mut stops = Vec::new();
+    for l in lanelets {
+        for w in l.centre.windows(2) {
+            if inside(w[0]) || !inside(w[1]) {
+                continue;
+            }
+            // Bisect for the boundary, then step back along the segment.
+            let (mut lo, mut hi) = (0.0, 1.0);
+            let lerp = |t: f64| [0, 1, 2].map(|k| w[0][k] + (w[1][k] - w[0][k]) * t);
+            for _ in 0..30 {
+                let mid = (lo + hi) / 2.0;
+                if inside(lerp(mid)) {
+                    hi = mid
+                } else {
+                    lo = mid
+                }
+            }
+            let entry = lerp(lo);
+            let d = dist(w[0], w[1]).max(1e-9);
+            let (ux, uy) = ((w[1][0] - w[0][0]) / d, (w[1][1] - w[0][1]) / d);
+            stops.push(StopPointDef {
+                position: Point([
+                    entry[0] - ux * CROSSWALK_STOP_BACK,
+                    entry[1] - uy * CROSSWALK_STOP_BACK,
+                    entry[2],
+                ]),
+                heading_deg: Some(uy.atan2(ux).to_degrees()),
+            });
+            break;
+        }
+    }
+    stops
+}
