@@ -4,6 +4,9 @@
 
 #[path = "../../shared/sim/tests/support/mod.rs"]
 mod sim_support;
+#[path = "../cluster/support.rs"]
+#[allow(dead_code)]
+mod support;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -32,24 +35,19 @@ fn shared_map(name: &str) -> Option<PathBuf> {
     None
 }
 
-fn python_with(module: &str) -> Option<String> {
-    let candidates = std::env::var("TRAFFICMESH_PYTHON")
-        .into_iter()
-        .chain(["python3".to_string()]);
-    for p in candidates {
-        let ok = Command::new(&p)
-            .args(["-c", &format!("import {module}")])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        if ok {
-            return Some(p);
-        }
-    }
-    if std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1") {
-        panic!("TRAFFICMESH_REQUIRE_PYTHON=1 but no python can import {module}");
-    }
-    eprintln!("NOTICE: skipped: no python with {module} (pip install {module})");
-    None
+/// Runs one of the Python checkers beside this file; it must print OK.
+fn python_check(python: &str, script: &str, args: &[&Path]) {
+    let check = Command::new(python)
+        .arg(repo().join("tests/maps").join(script))
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&check.stdout);
+    assert!(
+        check.status.success() && stdout.contains("OK"),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&check.stderr)
+    );
 }
 
 fn import(file: &Path, out: &Path) -> std::process::Output {
@@ -67,7 +65,7 @@ fn cross_net_imports_as_sumolib_reads_it() {
     let Some(net) = shared_map("cross.net.xml") else {
         return;
     };
-    let Some(python) = python_with("sumolib") else {
+    let Some(python) = support::python_with("sumolib", "sumolib==1.28.0") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -84,18 +82,7 @@ fn cross_net_imports_as_sumolib_reads_it() {
         summary.contains("U-turn"),
         "the dropped U-turns are reported: {summary}"
     );
-    let check = Command::new(python)
-        .arg(repo().join("tests/maps/check_sumo_import.py"))
-        .arg(&net)
-        .arg(&out)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&check.stdout);
-    assert!(
-        check.status.success() && stdout.contains("OK"),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&check.stderr)
-    );
+    python_check(&python, "check_sumo_import.py", &[&net, &out]);
 }
 
 /// Vehicles enter the signalised junction of cross.net.xml only on green or
@@ -195,7 +182,7 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
 
 fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     let Some(osm) = shared_map(file) else { return };
-    let Some(python) = python_with("xml") else {
+    let Some(python) = support::python_with("xml", "(the standard library)") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -211,18 +198,7 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
         summary.contains("synthesised two-phase program"),
         "the synthesised timing is said: {summary}"
     );
-    let check = Command::new(python)
-        .arg(repo().join("tests/maps/check_lanelet2_import.py"))
-        .arg(&osm)
-        .arg(&out)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&check.stdout);
-    assert!(
-        check.status.success() && stdout.contains("OK"),
-        "{stdout}\n{}",
-        String::from_utf8_lossy(&check.stderr)
-    );
+    python_check(&python, "check_lanelet2_import.py", &[&osm, &out]);
 
     if !ten_minutes_without_overlaps {
         return;

@@ -48,6 +48,20 @@ impl ImportError {
     }
 }
 
+/// Parses the XML and checks the root element's name (`what` says which format it is not).
+pub fn parse_xml<'a>(text: &'a str, root: &str, what: &str) -> Result<Document<'a>, ImportError> {
+    let doc = Document::parse(text).map_err(ImportError::xml)?;
+    let found = doc.root_element();
+    if found.tag_name().name() != root {
+        return Err(ImportError::at(
+            &doc,
+            found,
+            &format!("the root element is not <{root}> (not a {what})"),
+        ));
+    }
+    Ok(doc)
+}
+
 pub fn attr<'a>(doc: &Document, node: Node<'a, '_>, name: &str) -> Result<&'a str, ImportError> {
     node.attribute(name)
         .ok_or_else(|| ImportError::at(doc, node, &format!("missing attribute '{name}'")))

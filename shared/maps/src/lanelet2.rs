@@ -18,7 +18,7 @@ use trafficmesh_model::map::{
     SimulatorDef, StopPointDef,
 };
 
-use crate::import::{ImportError, Imported, attr};
+use crate::import::{ImportError, Imported, attr, parse_xml};
 
 const EARTH_RADIUS: f64 = 6_371_000.0;
 /// Lanelet2's default for urban roads when a lanelet has no speed_limit, km/h.
@@ -104,15 +104,8 @@ fn num(doc: &Document, n: Node, text: &str, what: &str) -> Result<f64, ImportErr
 }
 
 pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
-    let doc = Document::parse(text).map_err(ImportError::xml)?;
+    let doc = parse_xml(text, "osm", "Lanelet2 map")?;
     let root = doc.root_element();
-    if root.tag_name().name() != "osm" {
-        return Err(ImportError::at(
-            &doc,
-            root,
-            "the root element is not <osm> (not a Lanelet2 map)",
-        ));
-    }
     let mut warnings = Vec::new();
     let points = node_positions(&doc, root, &mut warnings)?;
     let mut ways: HashMap<i64, Way> = HashMap::new();

@@ -12,7 +12,7 @@ use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{LaneDef, LightGroupDef, LightProgram, MapFile, Point, SimulatorDef};
 
-use crate::import::{ImportError, Imported, attr, attr_f64};
+use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml};
 
 /// Lanes narrower than this are kept at it (SUMO's default lane width is 3.2 m).
 const DEFAULT_WIDTH: f64 = 3.2;
@@ -34,15 +34,8 @@ struct Phase {
 }
 
 pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
-    let doc = Document::parse(text).map_err(ImportError::xml)?;
+    let doc = parse_xml(text, "net", "SUMO network")?;
     let net = doc.root_element();
-    if net.tag_name().name() != "net" {
-        return Err(ImportError::at(
-            &doc,
-            net,
-            "the root element is not <net> (not a SUMO network)",
-        ));
-    }
     let mut warnings = Vec::new();
     let offset = net
         .children()
