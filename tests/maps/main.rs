@@ -287,3 +287,46 @@ fn broken_lanelet2_files_are_rejected_naming_line_and_element() {
     }
     assert!(!out.exists());
 }
+
+/// A SUMO demand runs as written: every vehicle departs, follows its route
+/// through the signalised junction and leaves the map at the route's end.
+#[test]
+fn a_sumo_route_file_runs_its_vehicles_along_their_routes_and_out() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["sim", "--map"])
+        .arg(&net)
+        .arg("--routes")
+        .arg(repo().join("tests/maps/cross.rou.xml"))
+        .args(["--duration", "300", "--json", "--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("1 trip(s) without a route left out"),
+        "{stderr}"
+    );
+    let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(summary["spawned"], 11, "{summary}");
+    assert_eq!(
+        summary["despawned"], 11,
+        "every vehicle left at its route's end: {summary}"
+    );
+    assert_eq!(
+        summary["branch_decisions"], 0,
+        "nobody chose a branch: {summary}"
+    );
+    let trips = std::fs::read_to_string(dir.path().join("trips.csv")).unwrap();
+    let truck = trips.lines().filter(|l| l.contains("Truck")).count();
+    assert_eq!(truck, 1, "the 7.5 m vType became the truck:\n{trips}");
+    assert_eq!(
+        trips.lines().filter(|l| l.ends_with(",route_end")).count(),
+        11,
+        "{trips}"
+    );
+}

@@ -133,6 +133,7 @@ fn geometry(net: &LaneNetwork) -> MapGeometry {
         .flat_map(|s| match s {
             SimulatorSpec::Random { lanes, .. } => lanes.clone(),
             SimulatorSpec::Route { route, .. } => route.first().copied().into_iter().collect(),
+            SimulatorSpec::Demand { departures } => departures.iter().map(|d| d.1[0]).collect(),
         })
         .collect();
     spawn_lanes.sort_unstable();

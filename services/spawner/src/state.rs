@@ -66,12 +66,14 @@ impl SpawnerState {
             .map(|r| SpawnOrder {
                 lane: self.net.lane(r.lane).name.clone(),
                 kind: self.net.kinds[r.kind].name.clone(),
-                route: r.route.as_ref().map(|lanes| {
-                    lanes
+                route: r.route.as_ref().map(|route| {
+                    route
+                        .lanes
                         .iter()
                         .map(|&l| self.net.lane(l).name.clone())
                         .collect()
                 }),
+                leave_at_route_end: r.route.as_ref().is_some_and(|route| route.leave_at_end),
             })
             .collect();
         (

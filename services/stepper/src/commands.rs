@@ -144,7 +144,10 @@ fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
                             }
                         }
                     }
-                    Some(lanes.into())
+                    Some(trafficmesh_sim::spawn::Route {
+                        lanes: lanes.into(),
+                        leave_at_end: order.leave_at_route_end,
+                    })
                 }
             };
             match world.admit_spawn(kind, lane, route, batch.max_vehicles, &mut spawned_here) {

@@ -123,6 +123,14 @@ pub fn load_map(path: &Path) -> Result<MapFile, FileError> {
     Ok(import_map(path)?.map)
 }
 
+/// A SUMO route file as a demand on `map` (lane routes through its connections).
+pub fn load_routes(path: &Path, map: &MapFile) -> Result<crate::sumo_routes::Demand, FileError> {
+    crate::sumo_routes::import(&read(path)?, map).map_err(|source| FileError::Import {
+        path: path.to_owned(),
+        source,
+    })
+}
+
 /// As `load_map`, with the warnings of a foreign format's import.
 pub fn import_map(path: &Path) -> Result<Imported, FileError> {
     let text = read(path)?;

@@ -8,13 +8,31 @@ pub mod grid;
 pub mod import;
 mod lanelet2;
 mod sumo;
+pub mod sumo_routes;
 
 pub use files::{
-    FileError, import_map, load_map, load_spawn_config, parse_map, parse_spawn_config,
+    FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,
 };
 pub use grid::{GridOptions, grid_map};
 pub use import::{ImportError, Imported};
+
+/// Loads a map (any format) with a SUMO route file's demand in place of the
+/// map's own simulators, and compiles it.
+pub fn load_network_with_routes(
+    map: &std::path::Path,
+    routes: &std::path::Path,
+) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>), FileError> {
+    let mut file = load_map(map)?;
+    let demand = load_routes(routes, &file)?;
+    file.traffic_simulators = vec![demand.simulator];
+    let net =
+        trafficmesh_sim::LaneNetwork::build(&file).map_err(|problems| FileError::Invalid {
+            path: routes.to_owned(),
+            problems,
+        })?;
+    Ok((net, demand.warnings))
+}
 
 /// Loads a map file and compiles it into the simulation's lane network, with
 /// every problem of the start-up checklist named.

@@ -139,12 +139,20 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
 
     // Vehicles enter where no other road leads in (SUMO demand comes from route
     // files; without one, the map's random simulator spawns at these lanes).
-    let sources: Vec<String> = lanes
+    let mut sources: Vec<String> = lanes
         .iter()
         .zip(&entered)
         .filter(|(l, e)| !**e && !l.intersection)
         .map(|(l, _)| l.name.clone())
         .collect();
+    if sources.is_empty() {
+        // A closed network (a grid without fringe): spawn on every normal lane.
+        sources = lanes
+            .iter()
+            .filter(|l| !l.intersection)
+            .map(|l| l.name.clone())
+            .collect();
+    }
     let traffic_simulators = if sources.is_empty() {
         Vec::new()
     } else {

@@ -15,8 +15,8 @@ pub mod wire;
 pub use catalog::{VehicleKind, builtin_kind};
 pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};
 pub use map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, MapProblem,
-    SimulatorDef, ZebraConfigDef,
+    CrosswalkArea, CrosswalkDef, DepartureDef, LaneDef, LightGroupDef, LightProgram, MapFile,
+    MapProblem, SimulatorDef, ZebraConfigDef,
 };
 pub use spawn_config::{
     BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig,

@@ -208,18 +208,54 @@ pub enum SimulatorDef {
         #[serde(default = "yes")]
         enabled: bool,
     },
+    /// A timetable (a SUMO demand): each vehicle departs at its time on its
+    /// route, or as soon after as its first lane has room.
+    Demand { departures: Vec<DepartureDef> },
+}
+
+/// One scheduled vehicle of a demand.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DepartureDef {
+    /// Simulation seconds.
+    pub time: f64,
+    /// Lanes in driving order, the first one the spawn lane.
+    pub route: Vec<String>,
+    pub prefab: String,
 }
 
 impl SimulatorDef {
-    pub fn lanes(&self) -> &[String] {
+    /// (field, lanes) and (field, prefabs) lists to check, one pair per list.
+    fn checks(&self) -> Vec<(String, &[String], String, Vec<&String>)> {
         match self {
-            SimulatorDef::Random { lanes, .. } => lanes,
-            SimulatorDef::Route { route, .. } => route,
-        }
-    }
-    pub fn prefabs(&self) -> &[String] {
-        match self {
-            SimulatorDef::Random { prefabs, .. } | SimulatorDef::Route { prefabs, .. } => prefabs,
+            SimulatorDef::Random { lanes, prefabs, .. } => {
+                vec![(
+                    "lanes".into(),
+                    lanes,
+                    "prefabs".into(),
+                    prefabs.iter().collect(),
+                )]
+            }
+            SimulatorDef::Route { route, prefabs, .. } => {
+                vec![(
+                    "route".into(),
+                    route,
+                    "prefabs".into(),
+                    prefabs.iter().collect(),
+                )]
+            }
+            SimulatorDef::Demand { departures } => departures
+                .iter()
+                .enumerate()
+                .map(|(k, d)| {
+                    (
+                        format!("departures[{k}].route"),
+                        d.route.as_slice(),
+                        format!("departures[{k}].prefab"),
+                        vec![&d.prefab],
+                    )
+                })
+                .collect(),
         }
     }
 }
@@ -519,37 +555,61 @@ impl MapFile {
             p.add(
                 "map",
                 "traffic_simulators",
-                "no traffic simulator is configured; at least one random or route simulator is required",
+                "no traffic simulator is configured; at least one random, route or demand simulator is required",
             );
         }
         for (i, sim) in self.traffic_simulators.iter().enumerate() {
             let el = format!("traffic_simulators[{i}]");
-            let field = if matches!(sim, SimulatorDef::Random { .. }) {
-                "lanes"
-            } else {
-                "route"
-            };
-            if sim.lanes().is_empty() {
-                p.add(&el, field, "is empty");
+            if let SimulatorDef::Demand { departures } = sim
+                && let Some(k) = departures
+                    .iter()
+                    .position(|d| !(d.time.is_finite() && d.time >= 0.0))
+            {
+                p.add(
+                    &el,
+                    &format!("departures[{k}].time"),
+                    "must be a finite number of seconds, not negative",
+                );
             }
-            for lane in sim.lanes() {
+            for (field, lanes, prefab_field, prefabs) in sim.checks() {
+                self.check_simulator_lists(&el, &field, lanes, &prefab_field, &prefabs, names, p);
+            }
+        }
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn check_simulator_lists(
+        &self,
+        el: &str,
+        field: &str,
+        lanes: &[String],
+        prefab_field: &str,
+        prefabs: &[&String],
+        names: &HashMap<String, usize>,
+        p: &mut Problems,
+    ) {
+        {
+            if lanes.is_empty() {
+                p.add(el, field, "is empty");
+            }
+            for lane in lanes {
                 if !names.contains_key(&lane.to_lowercase()) {
-                    p.add(&el, field, format!("unknown lane '{lane}'"));
+                    p.add(el, field, format!("unknown lane '{lane}'"));
                 } else if let Some(&j) = names.get(&lane.to_lowercase())
                     && self.lanes[j].waypoints.len() < 2
                 {
-                    p.add(&el, field, format!("lane '{lane}' has no usable geometry"));
+                    p.add(el, field, format!("lane '{lane}' has no usable geometry"));
                 }
             }
-            if sim.prefabs().is_empty() {
-                p.add(&el, "prefabs", "is empty");
+            if prefabs.is_empty() {
+                p.add(el, prefab_field, "is empty");
             }
-            for prefab in sim.prefabs() {
+            for prefab in prefabs {
                 if builtin_kind(prefab).is_none() {
                     let known: Vec<&str> = crate::catalog::builtin_names().collect();
                     p.add(
-                        &el,
-                        "prefabs",
+                        el,
+                        prefab_field,
                         format!(
                             "unknown vehicle kind '{prefab}' (known: {})",
                             known.join(", ")

@@ -7,6 +7,8 @@ use crate::vehicle::VehicleId;
 pub enum DespawnReason {
     /// Drove off the end of a lane with no successor.
     DeadEnd,
+    /// Reached the end of a route that leaves the map there (a SUMO demand).
+    RouteEnd,
     /// RemoveVehiclesInRadius.
     Removed,
     /// Restart disposed of it.
@@ -17,6 +19,7 @@ impl DespawnReason {
     pub fn as_str(self) -> &'static str {
         match self {
             DespawnReason::DeadEnd => "dead_end",
+            DespawnReason::RouteEnd => "route_end",
             DespawnReason::Removed => "removed",
             DespawnReason::Restart => "restart",
         }

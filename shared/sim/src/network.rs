@@ -104,6 +104,10 @@ pub enum SimulatorSpec {
         maximum_spawns: u32,
         enabled: bool,
     },
+    /// Departures in time order: (time, route, kind).
+    Demand {
+        departures: Vec<(f64, std::sync::Arc<[LaneId]>, usize)>,
+    },
 }
 
 #[derive(Clone, Debug)]
@@ -211,6 +215,20 @@ impl LaneNetwork {
                     maximum_spawns: *maximum_spawns,
                     enabled: *enabled,
                 },
+                SimulatorDef::Demand { departures } => {
+                    let mut departures: Vec<_> = departures
+                        .iter()
+                        .map(|d| {
+                            (
+                                d.time,
+                                d.route.iter().map(id).collect(),
+                                kind_index(&d.prefab),
+                            )
+                        })
+                        .collect();
+                    departures.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    SimulatorSpec::Demand { departures }
+                }
             })
             .collect();
 

@@ -46,6 +46,8 @@ pub struct RouteProgress {
     pub lanes: std::sync::Arc<[LaneId]>,
     /// Index in `lanes` of the last lane appended to the path.
     pub index: usize,
+    /// Leave the map after the last lane instead of choosing branches.
+    pub leave_at_end: bool,
 }
 
 /// The first junction lane of a vehicle's path, kept up to date as lanes are

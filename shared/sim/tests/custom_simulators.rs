@@ -20,7 +20,7 @@ impl TrafficSimulator for Always {
     fn is_enabled(&self) -> bool {
         true
     }
-    fn propose(&mut self, net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
+    fn propose(&mut self, net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
         let kind = net
             .kinds
             .iter()

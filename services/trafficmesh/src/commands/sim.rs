@@ -15,7 +15,11 @@ use crate::output;
 
 #[derive(Args)]
 pub struct SimArgs {
-    /// Map file (native `.map.json`; make one with `trafficmesh gen-grid`).
+    /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
+    #[arg(long)]
+    routes: Option<PathBuf>,
+    /// Map file: native `.map.json` (make one with `trafficmesh gen-grid`), SUMO
+    /// `.net.xml` or Lanelet2 `.osm`.
     #[arg(long)]
     map: PathBuf,
     /// Simulated seconds to run.
@@ -95,7 +99,16 @@ pub fn run(a: SimArgs) -> Result<()> {
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;
-    let net = trafficmesh_maps::load_network(&a.map)?;
+    let net = match &a.routes {
+        Some(routes) => {
+            let (net, warnings) = trafficmesh_maps::load_network_with_routes(&a.map, routes)?;
+            for w in warnings {
+                eprintln!("warning: {w}");
+            }
+            net
+        }
+        None => trafficmesh_maps::load_network(&a.map)?,
+    };
     let config = WorldConfig {
         seed: a.seed,
         max_vehicles: a.max_vehicles,

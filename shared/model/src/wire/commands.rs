@@ -17,6 +17,9 @@ pub struct SpawnOrder {
     pub kind: String,
     #[serde(default)]
     pub route: Option<Vec<String>>,
+    /// Leave the map at the route's end (a SUMO demand) instead of driving on.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub leave_at_route_end: bool,
 }
 
 /// The stepper's answer: one verdict per order, same order.

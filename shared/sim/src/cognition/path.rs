@@ -119,6 +119,10 @@ pub fn extend_path(
         push_lane(net, v, lane);
         return Ok(None);
     }
+    if v.route.as_ref().is_some_and(|r| r.leave_at_end) {
+        v.despawn_reason = Some(crate::events::DespawnReason::RouteEnd);
+        return Err(DeadEnd);
+    }
     let last = *v.path.last().expect("path is never empty");
     let options = &net.lane(last).next;
     match options.len() {

@@ -40,7 +40,7 @@ impl TrafficSimulator for ExternalSimulator {
         self.pending.iter().any(Option::is_some)
     }
 
-    fn propose(&mut self, _net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
+    fn propose(&mut self, _net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
         self.pending.retain(Option::is_some);
         out.extend(
             self.pending
@@ -50,7 +50,10 @@ impl TrafficSimulator for ExternalSimulator {
                 .map(|(slot, p)| SpawnProposal {
                     lane: p.lane,
                     kind: p.kind,
-                    route: p.route.clone(),
+                    route: p.route.clone().map(|lanes| super::Route {
+                        lanes,
+                        leave_at_end: false,
+                    }),
                     slot,
                 }),
         );
@@ -76,8 +79,11 @@ impl TrafficSimulator for SharedExternal {
     fn is_enabled(&self) -> bool {
         self.0.lock().expect("simulator lock").is_enabled()
     }
-    fn propose(&mut self, net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
-        self.0.lock().expect("simulator lock").propose(net, out)
+    fn propose(&mut self, net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
+        self.0
+            .lock()
+            .expect("simulator lock")
+            .propose(net, _time, out)
     }
     fn spawned(&mut self, slot: usize) {
         self.0.lock().expect("simulator lock").spawned(slot)

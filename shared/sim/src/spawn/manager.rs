@@ -5,8 +5,6 @@
 //! stepper in the cluster) makes the final IsSpawnable and max-count check and
 //! reports the [`SpawnOutcome`] back through [`SpawnManager::resolve`].
 
-use std::sync::Arc;
-
 use rustc_hash::FxHashMap;
 use trafficmesh_model::TrafficSpawnConfig;
 
@@ -31,7 +29,7 @@ pub struct SpawnRequest {
     pub lane: LaneId,
     /// Index into the network's vehicle kinds.
     pub kind: usize,
-    pub route: Option<Arc<[LaneId]>>,
+    pub route: Option<super::Route>,
     /// The winning simulator and its proposal slot.
     pub simulator: usize,
     pub slot: usize,
@@ -136,7 +134,7 @@ impl SpawnManager {
         for (si, sim) in self.simulators.iter_mut().enumerate() {
             if sim.is_enabled() {
                 buf.clear();
-                sim.propose(net, &mut buf);
+                sim.propose(net, time, &mut buf);
                 proposals.extend(buf.drain(..).map(|p| (si, p)));
             }
         }

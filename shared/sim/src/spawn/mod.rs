@@ -5,6 +5,7 @@
 //! priority, IsSpawnable, max vehicle count). A user-defined simulator implements
 //! [`TrafficSimulator`] and is added with `World::add_traffic_simulator`.
 
+mod demand;
 mod external;
 mod manager;
 mod random;
@@ -12,6 +13,7 @@ mod route;
 
 use std::sync::Arc;
 
+pub use demand::DemandSimulator;
 pub use external::{ExternalSimulator, PendingProposal, SharedExternal};
 pub use manager::{SpawnManager, SpawnOutcome, SpawnRequest, SpawnStats};
 pub use random::RandomTrafficSimulator;
@@ -20,14 +22,22 @@ pub use route::RouteTrafficSimulator;
 use crate::network::{LaneId, LaneNetwork, SimulatorSpec};
 use crate::rng::SimRng;
 
+/// Lanes a spawned vehicle follows (the first is the spawn lane), and what it
+/// does after the last: leave the map (a SUMO demand's vehicle at its route's
+/// end) or go on choosing branches (AWSIM's route simulator).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Route {
+    pub lanes: Arc<[LaneId]>,
+    pub leave_at_end: bool,
+}
+
 /// One spawn proposal: a vehicle kind at the start of a lane.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpawnProposal {
     pub lane: LaneId,
     /// Index into the network's vehicle kinds.
     pub kind: usize,
-    /// Lanes to follow from the spawn lane on (route[0] is the spawn lane).
-    pub route: Option<Arc<[LaneId]>>,
+    pub route: Option<Route>,
     /// The simulator's own tag for the proposal, handed back in `spawned`.
     pub slot: usize,
 }
@@ -35,9 +45,10 @@ pub struct SpawnProposal {
 pub trait TrafficSimulator: Send {
     /// Enabled, and its spawn limit not reached.
     fn is_enabled(&self) -> bool;
-    /// GetRandomSpawnInfo: this tick's proposals. A proposal's vehicle kind stays
-    /// pending until it actually spawns, so small cars do not always win.
-    fn propose(&mut self, net: &LaneNetwork, out: &mut Vec<SpawnProposal>);
+    /// GetRandomSpawnInfo: this tick's proposals at simulation time `time`. A
+    /// proposal's vehicle kind stays pending until it actually spawns, so small
+    /// cars do not always win.
+    fn propose(&mut self, net: &LaneNetwork, time: f64, out: &mut Vec<SpawnProposal>);
     /// The proposal with this slot spawned.
     fn spawned(&mut self, slot: usize);
     /// A fixed priority added to the seed's anti-starvation counter when
@@ -98,6 +109,9 @@ pub fn from_specs(
                     *enabled,
                     rng,
                 )),
+                SimulatorSpec::Demand { departures } => {
+                    Box::new(DemandSimulator::new(departures.clone()))
+                }
             };
             sim
         })

@@ -41,7 +41,7 @@ impl TrafficSimulator for RandomTrafficSimulator {
         self.enabled && !self.limit.reached() && !self.lanes.is_empty() && !self.kinds.is_empty()
     }
 
-    fn propose(&mut self, _net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
+    fn propose(&mut self, _net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
         for slot in 0..self.pending.len() {
             let kind = match self.pending[slot] {
                 Some(k) => k,

@@ -41,14 +41,17 @@ impl TrafficSimulator for RouteTrafficSimulator {
         self.enabled && !self.limit.reached() && !self.route.is_empty() && !self.kinds.is_empty()
     }
 
-    fn propose(&mut self, _net: &LaneNetwork, out: &mut Vec<SpawnProposal>) {
+    fn propose(&mut self, _net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
         let kind = *self
             .pending
             .get_or_insert_with(|| self.kinds[self.rng.below(self.kinds.len())]);
         out.push(SpawnProposal {
             lane: self.route[0],
             kind,
-            route: Some(self.route.clone()),
+            route: Some(super::Route {
+                lanes: self.route.clone(),
+                leave_at_end: false,
+            }),
             slot: 0,
         });
     }

@@ -62,7 +62,7 @@ impl World {
         &mut self,
         kind: usize,
         lane: LaneId,
-        route: Option<std::sync::Arc<[LaneId]>>,
+        route: Option<crate::spawn::Route>,
         max_vehicles: usize,
         spawned_here: &mut Vec<(DVec2, f64)>,
     ) -> Result<VehicleId, SpawnRejection> {
@@ -160,7 +160,7 @@ impl World {
         lane: LaneId,
         s: f64,
         speed: f64,
-        route: Option<std::sync::Arc<[LaneId]>>,
+        route: Option<crate::spawn::Route>,
     ) -> VehicleId {
         let k = &self.net.kinds[kind];
         let id = self.next_id;
@@ -178,7 +178,11 @@ impl World {
             s,
             speed,
             acceleration: 0.0,
-            route: route.map(|lanes| RouteProgress { lanes, index: 0 }),
+            route: route.map(|r| RouteProgress {
+                lanes: r.lanes,
+                index: 0,
+                leave_at_end: r.leave_at_end,
+            }),
             is_turning: false,
             distance_to_front: f64::INFINITY,
             light_lane: None,
@@ -266,6 +270,7 @@ impl World {
         v.route = Some(RouteProgress {
             lanes: lanes.into(),
             index: 0,
+            leave_at_end: false,
         });
         Ok(id)
     }
