@@ -20,6 +20,8 @@ pub enum BenchCommand {
     Cluster(super::bench_cluster::ClusterArgs),
     /// The cluster with N vehicles and the admin under a fixed rate of REST requests.
     Admin(super::bench_admin::AdminArgs),
+    /// SUMO and trafficmesh on the same SUMO network and routes, side by side.
+    VsSumo(super::bench_vs_sumo::VsSumoArgs),
 }
 
 #[derive(Args)]
@@ -77,6 +79,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Tick(a) => a,
         BenchCommand::Cluster(a) => return super::bench_cluster::run(a),
         BenchCommand::Admin(a) => return super::bench_admin::run(a),
+        BenchCommand::VsSumo(a) => return super::bench_vs_sumo::run(a),
     };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");

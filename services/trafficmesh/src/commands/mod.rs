@@ -2,6 +2,7 @@ pub mod bench;
 pub mod bench_admin;
 pub mod bench_cluster;
 mod bench_up;
+pub mod bench_vs_sumo;
 pub mod cluster_config;
 pub mod ego;
 pub mod gen_grid;

@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Grid scenarios for `trafficmesh bench vs-sumo`, made with SUMO's own tools
+# (netgenerate, randomTrips.py from the eclipse-sumo PyPI package).
+#
+#   configs/sumo/make_scenarios.sh [OUT_DIR]      (default out/sumo-scenarios)
+#
+# Writes grid{1k,10k,50k}.net.xml and .rou.xml: signalised grids (200 m blocks,
+# two lanes per direction, no U-turns) with random routed trips for 900 s,
+# sized for about 1,000, 10,000 and 50,000 vehicles running at once
+# (insertion rate x mean trip time). Then, for example:
+#   trafficmesh bench vs-sumo --net OUT/grid1k.net.xml --routes OUT/grid1k.rou.xml --duration 900
+set -euo pipefail
+OUT="${1:-out/sumo-scenarios}"
+VENV="${TRAFFICMESH_VENV:-$HOME/.cache/trafficmesh-venv}"
+if ! "$VENV/bin/python" -c "import sumo" >/dev/null 2>&1; then
+  python3 -m venv "$VENV"
+  "$VENV/bin/pip" install --quiet eclipse-sumo==1.28.0
+fi
+SUMO_HOME="$("$VENV/bin/python" -c 'import sumo, os; print(os.path.dirname(sumo.__file__))')"
+export SUMO_HOME
+mkdir -p "$OUT"
+
+# name, junctions per side, seconds between departures (randomTrips --period)
+for scenario in "grid1k 10 0.25" "grid10k 30 0.03" "grid50k 60 0.008"; do
+  set -- $scenario
+  name=$1 size=$2 period=$3
+  echo "$name: ${size}x${size} grid, a departure every ${period} s"
+  "$VENV/bin/netgenerate" --grid --grid.number "$size" --grid.length 200 -L 2 \
+    --tls.guess true --no-turnarounds true -o "$OUT/$name.net.xml" >/dev/null
+  "$VENV/bin/python" "$SUMO_HOME/tools/randomTrips.py" -n "$OUT/$name.net.xml" \
+    -r "$OUT/$name.rou.xml" -o "$OUT/$name.trips.xml" -b 0 -e 900 -p "$period" \
+    --seed 42 --fringe-factor 5 >/dev/null
+done
+echo "wrote $OUT"
