@@ -28,9 +28,12 @@ use crate::state::SpawnerState;
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`).
+    /// Map file: native `.map.json`, SUMO `.net.xml` or Lanelet2 `.osm`.
     #[arg(long)]
     map: PathBuf,
+    /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
+    #[arg(long)]
+    routes: Option<PathBuf>,
     /// Random seed of the simulators.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -72,7 +75,16 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = match &args.routes {
+        Some(routes) => {
+            let (net, warnings) = trafficmesh_maps::load_network_with_routes(&args.map, routes)?;
+            for w in warnings {
+                tracing::warn!("{}: {w}", routes.display());
+            }
+            net
+        }
+        None => trafficmesh_maps::load_network(&args.map)?,
+    };
     let mut state = SpawnerState::new(net, args.seed, args.max_vehicles);
     if args.spawn_config.exists() {
         let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;

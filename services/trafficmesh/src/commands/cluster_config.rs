@@ -92,6 +92,8 @@ impl Default for StepperSection {
 #[serde(deny_unknown_fields, default)]
 pub struct SpawnerSection {
     pub max_vehicles: usize,
+    /// A SUMO route file whose demand replaces the map's simulators.
+    pub routes: Option<PathBuf>,
     pub spawn_config: PathBuf,
     pub branch_csv: PathBuf,
 }
@@ -99,6 +101,7 @@ impl Default for SpawnerSection {
     fn default() -> Self {
         SpawnerSection {
             max_vehicles: 40,
+            routes: None,
             spawn_config: "traffic_spawn.json".into(),
             branch_csv: "traffic_branch_decisions.csv".into(),
         }
@@ -213,16 +216,24 @@ impl ClusterConfig {
             ("stepper", stepper),
             (
                 "spawner",
-                member(vec![
-                    "--seed".into(),
-                    self.seed.to_string(),
-                    "--max-vehicles".into(),
-                    self.spawner.max_vehicles.to_string(),
-                    "--spawn-config".into(),
-                    self.spawner.spawn_config.display().to_string(),
-                    "--branch-csv".into(),
-                    self.spawner.branch_csv.display().to_string(),
-                ]),
+                member({
+                    let mut flags = vec![
+                        "--seed".into(),
+                        self.seed.to_string(),
+                        "--max-vehicles".into(),
+                        self.spawner.max_vehicles.to_string(),
+                    ];
+                    if let Some(r) = &self.spawner.routes {
+                        flags.extend(["--routes".into(), r.display().to_string()]);
+                    }
+                    flags.extend([
+                        "--spawn-config".into(),
+                        self.spawner.spawn_config.display().to_string(),
+                        "--branch-csv".into(),
+                        self.spawner.branch_csv.display().to_string(),
+                    ]);
+                    flags
+                }),
             ),
             (
                 "lights",
