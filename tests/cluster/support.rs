@@ -56,18 +56,37 @@ impl Cluster {
         stepper_speed: f64,
         backoff_ms: u64,
     ) -> Cluster {
-        Self::launch(test, spawner, pedestrians, stepper_speed, backoff_ms, false)
+        Self::launch(
+            test,
+            &four_way(),
+            spawner,
+            pedestrians,
+            stepper_speed,
+            backoff_ms,
+            false,
+        )
     }
 
     /// As `start`, with the REST admin on a free port (token [`TOKEN`]).
     pub fn start_with_admin(test: &str, spawner: &str, pedestrians: bool) -> Cluster {
-        let cluster = Self::launch(test, spawner, pedestrians, 1.0, 200, true);
+        Self::start_on_with_admin(test, &four_way(), spawner, pedestrians)
+    }
+
+    /// As `start_with_admin`, on another map (any format `up` reads).
+    pub fn start_on_with_admin(
+        test: &str,
+        map: &Path,
+        spawner: &str,
+        pedestrians: bool,
+    ) -> Cluster {
+        let cluster = Self::launch(test, map, spawner, pedestrians, 1.0, 200, true);
         cluster.wait_for_admin();
         cluster
     }
 
     fn launch(
         test: &str,
+        map: &Path,
         spawner: &str,
         pedestrians: bool,
         stepper_speed: f64,
@@ -100,7 +119,7 @@ listen = "127.0.0.1:{admin_port}"
 token = "{TOKEN}"
 token_file = "{dir}/admin.token"
 "#,
-            map = four_way().display(),
+            map = map.display(),
             dir = dir.path().display(),
         );
         let path = dir.path().join("cluster.toml");

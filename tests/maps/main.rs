@@ -330,3 +330,40 @@ fn a_sumo_route_file_runs_its_vehicles_along_their_routes_and_out() {
         "{trips}"
     );
 }
+
+/// The same demand in the cluster: the spawner takes the route file, and the
+/// vehicles drive their routes and leave without choosing a branch.
+#[test]
+fn a_sumo_route_file_drives_the_cluster_spawner() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let routes = repo().join("tests/maps/cross.rou.xml");
+    let cluster = support::Cluster::start_on_with_admin(
+        "routes",
+        &net,
+        &format!("routes = \"{}\"", routes.display()),
+        false,
+    );
+    let base = cluster.admin.clone().unwrap();
+    let spawner = || -> serde_json::Value {
+        let mut r = ureq::get(format!("{base}/api/v1/status")).call().unwrap();
+        let s: serde_json::Value = r.body_mut().read_json().unwrap();
+        s["services"]["spawner"]["details"].clone()
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(60);
+    while spawner()["spawned"].as_u64().unwrap_or(0) < 11 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the demand's 11 vehicles did not all spawn: {}",
+            spawner()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    }
+    let details = spawner();
+    assert_eq!(details["spawned"], 11, "no more than the demand: {details}");
+    assert_eq!(
+        details["branch_decisions"], 0,
+        "route vehicles choose no branch: {details}"
+    );
+}
