@@ -2,7 +2,7 @@
 //! and element), and the XML attribute helpers the importers share.
 
 use roxmltree::{Document, Node};
-use trafficmesh_model::map::MapFile;
+use trafficmesh_model::map::{LaneDef, MapFile, SimulatorDef};
 
 /// A map read from a foreign file, and what could not be carried over.
 #[derive(Debug)]
@@ -46,6 +46,30 @@ impl ImportError {
             message,
         }
     }
+}
+
+/// The map's random simulator for an imported network: every catalogue kind,
+/// spawning at `entries` (lanes nothing leads into), or at every non-junction
+/// lane when there are none (a closed network). None when the map has no lane.
+pub fn random_simulator(lanes: &[LaneDef], entries: Vec<String>) -> Option<SimulatorDef> {
+    let sources = if entries.is_empty() {
+        lanes
+            .iter()
+            .filter(|l| !l.intersection)
+            .map(|l| l.name.clone())
+            .collect()
+    } else {
+        entries
+    };
+    (!sources.is_empty()).then(|| SimulatorDef::Random {
+        lanes: sources,
+        prefabs: trafficmesh_model::catalog::builtin_names()
+            .map(String::from)
+            .collect(),
+        maximum_spawns: 0,
+        enabled: true,
+        spawn_attempts_per_tick: 1,
+    })
 }
 
 /// Parses the XML and checks the root element's name (`what` says which format it is not).

@@ -14,11 +14,10 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
-    SimulatorDef, StopPointDef,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point, StopPointDef,
 };
 
-use crate::import::{ImportError, Imported, attr, parse_xml};
+use crate::import::{ImportError, Imported, attr, parse_xml, random_simulator};
 
 const EARTH_RADIUS: f64 = 6_371_000.0;
 /// Lanelet2's default for urban roads when a lanelet has no speed_limit, km/h.
@@ -359,19 +358,13 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         .collect();
 
     // Spawn lanes: the lanelets nothing leads into.
-    let mut sources: Vec<String> = lanes
+    let entries: Vec<String> = lanes
         .iter()
         .zip(&predecessors)
         .filter(|(l, p)| p.is_empty() && !l.intersection)
         .map(|(l, _)| l.name.clone())
         .collect();
-    if sources.is_empty() {
-        sources = lanes
-            .iter()
-            .filter(|l| !l.intersection)
-            .map(|l| l.name.clone())
-            .collect();
-    }
+    let traffic_simulators = random_simulator(&lanes, entries).into_iter().collect();
     Ok(Imported {
         map: MapFile {
             format: trafficmesh_model::map::MAP_FORMAT.to_string(),
@@ -380,15 +373,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             light_groups,
             crosswalks,
             zebra_configs: Vec::new(),
-            traffic_simulators: vec![SimulatorDef::Random {
-                lanes: sources,
-                prefabs: trafficmesh_model::catalog::builtin_names()
-                    .map(String::from)
-                    .collect(),
-                maximum_spawns: 0,
-                enabled: true,
-                spawn_attempts_per_tick: 1,
-            }],
+            traffic_simulators,
         },
         warnings,
     })

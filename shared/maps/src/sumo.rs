@@ -10,9 +10,9 @@ use std::collections::{BTreeMap, HashMap};
 
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
-use trafficmesh_model::map::{LaneDef, LightGroupDef, LightProgram, MapFile, Point, SimulatorDef};
+use trafficmesh_model::map::{LaneDef, LightGroupDef, LightProgram, MapFile, Point};
 
-use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml};
+use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml, random_simulator};
 
 /// Lanes narrower than this are kept at it (SUMO's default lane width is 3.2 m).
 const DEFAULT_WIDTH: f64 = 3.2;
@@ -139,33 +139,13 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
 
     // Vehicles enter where no other road leads in (SUMO demand comes from route
     // files; without one, the map's random simulator spawns at these lanes).
-    let mut sources: Vec<String> = lanes
+    let entries: Vec<String> = lanes
         .iter()
         .zip(&entered)
         .filter(|(l, e)| !**e && !l.intersection)
         .map(|(l, _)| l.name.clone())
         .collect();
-    if sources.is_empty() {
-        // A closed network (a grid without fringe): spawn on every normal lane.
-        sources = lanes
-            .iter()
-            .filter(|l| !l.intersection)
-            .map(|l| l.name.clone())
-            .collect();
-    }
-    let traffic_simulators = if sources.is_empty() {
-        Vec::new()
-    } else {
-        vec![SimulatorDef::Random {
-            lanes: sources,
-            prefabs: trafficmesh_model::catalog::builtin_names()
-                .map(String::from)
-                .collect(),
-            maximum_spawns: 0,
-            enabled: true,
-            spawn_attempts_per_tick: 1,
-        }]
-    };
+    let traffic_simulators = random_simulator(&lanes, entries).into_iter().collect();
     Ok(Imported {
         map: MapFile {
             format: trafficmesh_model::map::MAP_FORMAT.to_string(),
