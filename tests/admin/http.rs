@@ -95,6 +95,11 @@ impl Api {
         reply(r)
     }
 
+    /// A POST without a body, with the bearer token (the save and load actions).
+    pub fn post_empty(&self, path: &str, token: &str) -> Reply {
+        self.send("POST", path, Auth::Bearer(token), None, None)
+    }
+
     /// `method` with a JSON body and the bearer token.
     pub fn json(&self, method: &str, path: &str, token: &str, body: &Value) -> Reply {
         self.send(

@@ -424,13 +424,7 @@ fn a_spawn_config_put_changes_spawning_and_survives_save_restart_and_load() {
     assert!(busy >= 3, "30/min on J0_0_in_W0 gave {busy} spawns in 10 s");
 
     // Saved, then the spawner killed: `up` restarts it and it loads the file.
-    let saved = api.send(
-        "POST",
-        "/api/v1/spawn-config/save",
-        Auth::Bearer(TOKEN),
-        None,
-        None,
-    );
+    let saved = api.post_empty("/api/v1/spawn-config/save", TOKEN);
     assert_eq!(saved.status, 200, "{}", saved.body);
     assert_eq!(saved.json()["saved"], file.display().to_string());
     let on_disk: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
@@ -467,13 +461,7 @@ fn a_spawn_config_put_changes_spawning_and_survives_save_restart_and_load() {
     );
 
     // Load brings back the saved one.
-    let loaded = api.send(
-        "POST",
-        "/api/v1/spawn-config/load",
-        Auth::Bearer(TOKEN),
-        None,
-        None,
-    );
+    let loaded = api.post_empty("/api/v1/spawn-config/load", TOKEN);
     assert_eq!(loaded.status, 200, "{}", loaded.body);
     assert_eq!(rate_of(&loaded.json(), "J0_0_in_W0"), 30.0);
     assert_eq!(
@@ -488,14 +476,7 @@ fn a_spawn_config_put_changes_spawning_and_survives_save_restart_and_load() {
         200
     );
     assert_eq!(
-        api.send(
-            "POST",
-            "/api/v1/spawn-config/save",
-            Auth::Bearer(TOKEN),
-            None,
-            None
-        )
-        .status,
+        api.post_empty("/api/v1/spawn-config/save", TOKEN).status,
         200
     );
     let now: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
@@ -519,14 +500,7 @@ fn a_refused_spawn_config_changes_neither_the_spawner_nor_the_file() {
         200
     );
     assert_eq!(
-        api.send(
-            "POST",
-            "/api/v1/spawn-config/save",
-            Auth::Bearer(TOKEN),
-            None,
-            None
-        )
-        .status,
+        api.post_empty("/api/v1/spawn-config/save", TOKEN).status,
         200
     );
     let bytes = std::fs::read(&file).unwrap();

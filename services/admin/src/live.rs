@@ -56,7 +56,7 @@ pub async fn socket(
 async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
     let mut interval = tokio::time::interval(period);
     interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let (mut sent_batch, mut sent_states) = (None::<u64>, None::<u64>);
+    let (mut sent_batch, mut sent_states) = (0u64, None::<u64>);
     loop {
         tokio::select! {
             _ = interval.tick() => {}
@@ -67,10 +67,11 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
         }
         let (batch, states) = {
             let v = app.view.read();
-            let tick = v.clock.as_ref().map(|c| c.tick);
-            let batch = (tick != sent_batch)
-                .then(|| (tick, v.batch.clone()))
-                .and_then(|(t, b)| Some((t, b?)));
+            let batch = v
+                .batch
+                .clone()
+                .filter(|_| v.batch_version != sent_batch)
+                .map(|b| (v.batch_version, b));
             let states = (Some(v.states_version) != sent_states).then(|| {
                 let lights: serde_json::Map<String, serde_json::Value> = v
                     .lights
@@ -93,7 +94,7 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
             }
             sent_states = Some(version);
         }
-        if let Some((tick, bytes)) = batch {
+        if let Some((version, bytes)) = batch {
             if socket
                 .send(Message::Binary(bytes.to_bytes().into_owned().into()))
                 .await
@@ -101,7 +102,7 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
             {
                 return;
             }
-            sent_batch = tick;
+            sent_batch = version;
         }
     }
 }

@@ -18,6 +18,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+use trafficmesh_maps::MapArgs;
 
 #[derive(Parser)]
 #[command(
@@ -31,9 +32,8 @@ when neither exists a token is generated, written to the token file (mode 0600) 
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`): names for the lane and kind indices, geometry for the live map.
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     /// HTTP address to listen on (`--listen` is the Zenoh one).
     #[arg(long, default_value = "127.0.0.1:8080")]
     bind: SocketAddr,
@@ -89,7 +89,7 @@ fn run(args: Args) -> Result<()> {
         bail!("--max-body-bytes must be positive");
     }
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = args.map.load()?;
     let token_file = args.token_file.clone().unwrap_or_else(default_token_file);
     let (token, source) = token::resolve(args.token.clone(), &token_file)?;
     if source == token::Source::Generated {

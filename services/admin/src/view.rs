@@ -20,6 +20,8 @@ pub struct ViewState {
     pub clock: Option<Clock>,
     /// The newest vehicle batch as published (binary, see `vehicle_codec`).
     pub batch: Option<ZBytes>,
+    /// Bumped on every batch, so the live map sends each one at most once.
+    pub batch_version: u64,
     pub lights: BTreeMap<String, LightState>,
     pub occupancy: BTreeMap<String, CrosswalkOccupancy>,
     pub statuses: BTreeMap<String, (ServiceStatus, Instant)>,
@@ -56,7 +58,9 @@ impl ClusterView {
         let view = self.clone();
         tokio::spawn(async move {
             while let Ok(sample) = vehicles.recv_async().await {
-                view.write().batch = Some(sample.payload().clone());
+                let mut v = view.write();
+                v.batch = Some(sample.payload().clone());
+                v.batch_version += 1;
             }
         });
 

@@ -4,7 +4,6 @@
 //! keeps it valid; the blocked-stop query is answered here.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -13,6 +12,7 @@ use anyhow::{Result, bail};
 use clap::Parser;
 use glam::DVec2;
 use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
+use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy,
 };
@@ -30,9 +30,8 @@ use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`).
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     /// Simulation seconds published occupancy stays valid without a heartbeat;
     /// after that the stepper counts every crosswalk blocked.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
@@ -80,7 +79,7 @@ fn run(args: Args) -> Result<()> {
         );
     }
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = args.map.load()?;
     runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
     let occupancy = Occupancy::new(net.crosswalks.len());
     let agents = AgentOccupancy::new(&net.crosswalks);

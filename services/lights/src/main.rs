@@ -2,13 +2,13 @@
 //! stepper's clock. Publishes a group's state when it changes, a heartbeat that
 //! keeps every state valid, answers the current states and takes overrides.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 
 use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
+use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{Clock, LightOverride, LightState};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_sim::LaneNetwork;
@@ -24,9 +24,8 @@ use trafficmesh_sim::lights::{LightControl, Lights};
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`).
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     /// Simulation seconds a published state stays valid without a heartbeat;
     /// after that the stepper counts the group red.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
@@ -65,7 +64,7 @@ fn run(args: Args) -> Result<()> {
         );
     }
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = args.map.load()?;
     runtime::check_key_names(
         "light group",
         net.light_groups.iter().map(|g| g.name.as_str()),

@@ -2,12 +2,12 @@
 //! on the stepper's clock, published as agent footprints on
 //! `<cluster>/agents/pedestrians` ten times a simulated second.
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 
 use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
+use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{Agent, AgentBatch, Clock};
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
@@ -21,9 +21,8 @@ use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`).
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Crossings started per minute on each crosswalk (0 = nobody crosses).
@@ -52,7 +51,7 @@ fn run(args: Args) -> Result<()> {
         );
     }
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = args.map.load()?;
     let config = PedestrianConfig {
         per_minute: args.per_minute,
         cyclist_share: args.cyclist_share,

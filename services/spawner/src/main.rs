@@ -15,6 +15,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+use trafficmesh_maps::MapArgs;
 
 use crate::state::SpawnerState;
 
@@ -28,9 +29,8 @@ use crate::state::SpawnerState;
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file: native `.map.json`, SUMO `.net.xml` or Lanelet2 `.osm`.
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
     #[arg(long)]
     routes: Option<PathBuf>,
@@ -75,16 +75,11 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     args.bus.keys()?;
-    let net = match &args.routes {
-        Some(routes) => {
-            let (net, warnings) = trafficmesh_maps::load_network_with_routes(&args.map, routes)?;
-            for w in warnings {
-                tracing::warn!("{}: {w}", routes.display());
-            }
-            net
-        }
-        None => trafficmesh_maps::load_network(&args.map)?,
-    };
+    let (net, warnings) =
+        trafficmesh_maps::load_network_with_routes(&args.map.map, args.routes.as_deref())?;
+    for w in warnings {
+        tracing::warn!("route file: {w}");
+    }
     let mut state = SpawnerState::new(net, args.seed, args.max_vehicles);
     if args.spawn_config.exists() {
         let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;

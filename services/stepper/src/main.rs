@@ -8,13 +8,13 @@ mod inputs;
 mod telemetry;
 mod tick_loop;
 
-use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
+use trafficmesh_maps::MapArgs;
 use trafficmesh_sim::{World, WorldConfig};
 
 #[derive(Parser)]
@@ -27,9 +27,8 @@ use trafficmesh_sim::{World, WorldConfig};
 pub struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// Map file (native `.map.json`).
-    #[arg(long)]
-    map: PathBuf,
+    #[command(flatten)]
+    map: MapArgs,
     /// Random seed of the vehicles' branch choices.
     #[arg(long, default_value_t = 0)]
     seed: u64,
@@ -70,7 +69,7 @@ fn run(args: Args) -> Result<()> {
         bail!("--duration must be a positive number of seconds, got {d}");
     }
     args.bus.keys()?;
-    let net = trafficmesh_maps::load_network(&args.map)?;
+    let net = args.map.load()?;
     let config = WorldConfig {
         seed: args.seed,
         dt: args.dt,

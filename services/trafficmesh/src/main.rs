@@ -33,7 +33,7 @@ enum Command {
     Sim(commands::sim::SimArgs),
     /// Write an N x N signalised grid map (two lanes per direction).
     GenGrid(commands::gen_grid::GenGridArgs),
-    /// Convert a SUMO network (.net.xml) to the native map format, with a summary.
+    /// Convert a SUMO network (.net.xml) or Lanelet2 map (.osm) to the native map format, with a summary.
     Import(commands::import::ImportArgs),
     /// Start the whole cluster on this machine (every service a child process).
     Up(commands::up::UpArgs),

@@ -3,6 +3,7 @@
 //! kept), the signalised-grid generator, and importers of foreign formats
 //! (SUMO `.net.xml`, Lanelet2 `.osm`).
 
+pub mod args;
 pub mod files;
 pub mod grid;
 pub mod import;
@@ -10,6 +11,7 @@ mod lanelet2;
 mod sumo;
 pub mod sumo_routes;
 
+pub use args::MapArgs;
 pub use files::{
     FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,
@@ -17,12 +19,16 @@ pub use files::{
 pub use grid::{GridOptions, grid_map};
 pub use import::{ImportError, Imported};
 
-/// Loads a map (any format) with a SUMO route file's demand in place of the
-/// map's own simulators, and compiles it.
+/// Loads a map (any format), with a SUMO route file's demand in place of the
+/// map's own simulators when one is given, and compiles it; the route
+/// import's warnings come back with it.
 pub fn load_network_with_routes(
     map: &std::path::Path,
-    routes: &std::path::Path,
+    routes: Option<&std::path::Path>,
 ) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>), FileError> {
+    let Some(routes) = routes else {
+        return Ok((load_network(map)?, Vec::new()));
+    };
     let mut file = load_map(map)?;
     let demand = load_routes(routes, &file)?;
     file.traffic_simulators = vec![demand.simulator];

@@ -215,13 +215,6 @@ fn shape(doc: &Document, lane: Node) -> Result<Vec<Point>, ImportError> {
     Ok(points)
 }
 
-fn length(points: &[Point]) -> f64 {
-    points
-        .windows(2)
-        .map(|w| ((w[1].0[0] - w[0].0[0]).powi(2) + (w[1].0[1] - w[0].0[1]).powi(2)).sqrt())
-        .sum()
-}
-
 /// SUMO writes zero-length internal lanes (a shape of one repeated point): give
 /// them a minimal length along the lane that leads into them.
 fn stretch_degenerate(
@@ -230,7 +223,7 @@ fn stretch_degenerate(
     links: &[(String, String)],
 ) {
     for i in 0..lanes.len() {
-        if length(&lanes[i].waypoints) >= MIN_LANE_LENGTH {
+        if lanes[i].length() >= MIN_LANE_LENGTH {
             continue;
         }
         let name = lanes[i].name.clone();

@@ -79,6 +79,16 @@ pub struct LaneDef {
     pub right_of_way: Vec<String>,
 }
 
+impl LaneDef {
+    /// Length of the centreline in the ground plane, metres.
+    pub fn length(&self) -> f64 {
+        self.waypoints
+            .windows(2)
+            .map(|w| (w[1].0[0] - w[0].0[0]).hypot(w[1].0[1] - w[0].0[1]))
+            .sum()
+    }
+}
+
 /// A fixed-time program: green, then yellow, then red, repeating; `offset`
 /// shifts the cycle start (seconds of simulation time at which green begins).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -388,11 +398,7 @@ impl MapFile {
                     format!("point {i} is not a finite number"),
                 );
             } else if lane.waypoints.len() >= 2 {
-                let length: f64 = lane
-                    .waypoints
-                    .windows(2)
-                    .map(|w| (w[1].0[0] - w[0].0[0]).hypot(w[1].0[1] - w[0].0[1]))
-                    .sum();
+                let length = lane.length();
                 if length < 0.1 {
                     p.add(&el, "waypoints", format!("lane is only {length:.3} m long"));
                 }

@@ -62,7 +62,7 @@ struct Report {
 
 /// Runs a child to its end (stdout kept in `scratch/stdout`): wall seconds,
 /// peak resident bytes, instructions (under perf).
-fn run_measured(cmd: &mut Command, perf: bool, scratch: &Path) -> Result<(f64, u64, Option<u64>)> {
+fn run_measured(cmd: Command, perf: bool, scratch: &Path) -> Result<(f64, u64, Option<u64>)> {
     let perf_out = scratch.join("perf.csv");
     let mut command = if perf {
         let mut c = Command::new("perf");
@@ -73,7 +73,7 @@ fn run_measured(cmd: &mut Command, perf: bool, scratch: &Path) -> Result<(f64, u
             .args(cmd.get_args());
         c
     } else {
-        std::mem::replace(cmd, Command::new("true"))
+        cmd
     };
     let started = Instant::now();
     let child = command
@@ -147,7 +147,7 @@ fn run_sumo(a: &VsSumoArgs, sumo: &Path, perf: bool, scratch: &Path) -> Result<F
         "--statistic-output",
     ])
     .arg(&stats);
-    let (wall, memory, instructions) = run_measured(&mut cmd, perf, scratch)?;
+    let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
     let text = std::fs::read_to_string(&stats)
         .with_context(|| format!("SUMO wrote no {}", stats.display()))?;
     let doc = roxmltree::Document::parse(&text)?;
@@ -187,7 +187,7 @@ fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures
         "--out",
     ])
     .arg(&out);
-    let (wall, memory, instructions) = run_measured(&mut cmd, perf, scratch)?;
+    let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(scratch.join("stdout"))?)?;
     let steps = s["vehicle_steps"].as_f64().unwrap_or(0.0);

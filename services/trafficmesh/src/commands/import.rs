@@ -1,4 +1,4 @@
-//! `trafficmesh import FILE --out map.json`: a foreign map (SUMO `.net.xml`)
+//! `trafficmesh import FILE --out map.json`: a foreign map (SUMO `.net.xml`, Lanelet2 `.osm`)
 //! in the native format, with a summary and the import's warnings.
 
 use std::path::PathBuf;
@@ -11,7 +11,7 @@ use trafficmesh_maps::{import_map, write_atomic};
 
 #[derive(Args)]
 pub struct ImportArgs {
-    /// The map to read: a SUMO `.net.xml` (or a native `.map.json`, validated).
+    /// The map to read: a SUMO `.net.xml` or Lanelet2 `.osm` (or a native `.map.json`, validated).
     file: PathBuf,
     /// Where to write the native map; only the summary when omitted.
     #[arg(long)]
@@ -40,16 +40,11 @@ pub fn run(a: ImportArgs) -> Result<()> {
     let imported = import_map(&a.file)?;
     let import_ms = started.elapsed().as_secs_f64() * 1e3;
     let map = &imported.map;
-    let length = |w: &[trafficmesh_model::map::Point]| -> f64 {
-        w.windows(2)
-            .map(|p| ((p[1].0[0] - p[0].0[0]).powi(2) + (p[1].0[1] - p[0].0[1]).powi(2)).sqrt())
-            .sum()
-    };
     let summary = Summary {
         file: a.file.display().to_string(),
         lanes: map.lanes.len(),
         intersection_lanes: map.lanes.iter().filter(|l| l.intersection).count(),
-        lane_length_m: map.lanes.iter().map(|l| length(&l.waypoints)).sum(),
+        lane_length_m: map.lanes.iter().map(|l| l.length()).sum(),
         links: map.lanes.iter().map(|l| l.next.len()).sum(),
         light_groups: map.light_groups.len(),
         crosswalks: map.crosswalks.len(),

@@ -99,16 +99,10 @@ pub fn run(a: SimArgs) -> Result<()> {
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;
-    let net = match &a.routes {
-        Some(routes) => {
-            let (net, warnings) = trafficmesh_maps::load_network_with_routes(&a.map, routes)?;
-            for w in warnings {
-                eprintln!("warning: {w}");
-            }
-            net
-        }
-        None => trafficmesh_maps::load_network(&a.map)?,
-    };
+    let (net, warnings) = trafficmesh_maps::load_network_with_routes(&a.map, a.routes.as_deref())?;
+    for w in warnings {
+        eprintln!("warning: {w}");
+    }
     let config = WorldConfig {
         seed: a.seed,
         max_vehicles: a.max_vehicles,
