@@ -186,8 +186,13 @@ pub fn segments_intersect(a1: DVec2, b1: DVec2, a2: DVec2, b2: DVec2) -> bool {
 
 /// Smallest absolute difference between two headings, radians in [0, π].
 pub fn angle_between(a: f64, b: f64) -> f64 {
-    let d = (a - b).rem_euclid(std::f64::consts::TAU);
-    d.min(std::f64::consts::TAU - d)
+    use std::f64::consts::TAU;
+    let mut d = (a - b).abs();
+    // Headings come from atan2, so one wrap is enough; fmod only for the rest.
+    if d > TAU {
+        d %= TAU;
+    }
+    d.min(TAU - d)
 }
 
 /// Corners of an oriented box centred at c with heading yaw and half extents (hl, hw).
@@ -252,4 +257,21 @@ pub fn polygons_overlap(a: &[DVec2], b: &[DVec2]) -> bool {
             .any(|&(b1, b2)| segments_intersect(a1, a2, b1, b2))
     }) || point_in_polygon(a[0], b)
         || point_in_polygon(b[0], a)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::angle_between;
+    use std::f64::consts::{PI, TAU};
+
+    #[test]
+    fn angle_between_takes_the_short_way_round() {
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(close(angle_between(0.5, 0.2), 0.3));
+        assert!(close(angle_between(-0.2, 0.5), 0.7));
+        assert!(close(angle_between(3.0, -3.0), TAU - 6.0));
+        assert!(close(angle_between(PI, -PI), 0.0));
+        assert!(close(angle_between(0.1, 0.1 + 3.0 * TAU), 0.0));
+        assert!(close(angle_between(0.0, PI / 2.0 - 5.0 * TAU), PI / 2.0));
+    }
 }

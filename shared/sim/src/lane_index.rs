@@ -30,11 +30,14 @@ pub struct BlockedZone {
 }
 
 /// Vehicles of each lane sorted by rear position, and the conflict zones each
-/// lane has blocked by bodies on other lanes.
-#[derive(Clone, Debug)]
+/// lane has blocked by bodies on other lanes. Rebuilt in place each tick.
+#[derive(Clone, Debug, Default)]
 pub struct LaneIndex {
     occupants: Buckets<Occupant>,
     blocked: Buckets<BlockedZone>,
+    /// Scratch lists, kept for their allocations.
+    occupant_items: Vec<(LaneId, Occupant)>,
+    blocked_items: Vec<(LaneId, BlockedZone)>,
 }
 
 impl LaneIndex {
@@ -42,11 +45,13 @@ impl LaneIndex {
         LaneIndex {
             occupants: Buckets::build(lane_count, &[]),
             blocked: Buckets::build(lane_count, &[]),
+            ..LaneIndex::default()
         }
     }
 
-    pub fn build(net: &LaneNetwork, vehicles: &[Vehicle]) -> Self {
-        let mut items = Vec::with_capacity(vehicles.len() + vehicles.len() / 4);
+    pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
+        let items = &mut self.occupant_items;
+        items.clear();
         for (i, v) in vehicles.iter().enumerate() {
             items.push((
                 v.path[0],
@@ -70,8 +75,9 @@ impl LaneIndex {
                 ));
             }
         }
-        let mut blocked = Vec::new();
-        for &(lane, occ) in &items {
+        let blocked = &mut self.blocked_items;
+        blocked.clear();
+        for &(lane, occ) in items.iter() {
             for c in &net.lane(lane).conflicts {
                 if occ.front >= c.a0 && occ.rear <= c.a1 {
                     blocked.push((
@@ -87,19 +93,10 @@ impl LaneIndex {
                 }
             }
         }
-        let mut occupants = Buckets::build(net.lanes.len(), &items);
-        for lane in 0..net.lanes.len() as LaneId {
-            let slice = occupants.get_mut(lane);
-            if slice.len() > 1 {
-                slice.sort_unstable_by(|a, b| {
-                    a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle))
-                });
-            }
-        }
-        LaneIndex {
-            occupants,
-            blocked: Buckets::build(net.lanes.len(), &blocked),
-        }
+        self.occupants.rebuild(net.lanes.len(), items);
+        self.occupants
+            .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
+        self.blocked.rebuild(net.lanes.len(), blocked);
     }
 
     pub fn on_lane(&self, lane: LaneId) -> &[Occupant] {

@@ -10,7 +10,6 @@ use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
-use crate::lane_index::LaneIndex;
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 use crate::visualization::{turn_signal, update_trip};
@@ -45,7 +44,7 @@ impl World {
         self.lights.update(self.time);
         self.spawn_phase();
         self.follow_lanes();
-        self.index = LaneIndex::build(&self.net, &self.vehicles);
+        self.index.rebuild(&self.net, &self.vehicles);
 
         let mut perceptions = self.cognition();
         deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
