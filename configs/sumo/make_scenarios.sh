@@ -4,7 +4,7 @@
 #
 #   configs/sumo/make_scenarios.sh [OUT_DIR]      (default out/sumo-scenarios)
 #
-# Writes grid{1k,10k,50k}.net.xml and .rou.xml: signalised grids (200 m blocks,
+# Writes grid{1k,10k,50k}.net.xml and .rou.xml, and grid3_crossings.net.xml: signalised grids (200 m blocks,
 # two lanes per direction, no U-turns) with random routed trips for 900 s,
 # sized for about 1,000, 10,000 and 50,000 vehicles running at once
 # (insertion rate x mean trip time). Then, for example:
@@ -31,4 +31,9 @@ for scenario in "grid1k 10 0.25" "grid10k 30 0.03" "grid50k 60 0.008"; do
     -r "$OUT/$name.rou.xml" -o "$OUT/$name.trips.xml" -b 0 -e 900 -p "$period" \
     --seed 42 --fringe-factor 5 >/dev/null
 done
+# The small grid with sidewalks and pedestrian crossings that the import tests
+# read (committed as configs/sumo/grid3_crossings.net.xml).
+"$VENV/bin/netgenerate" --grid --grid.number 3 --grid.length 200 -L 2 --tls.guess true \
+  --no-turnarounds true --sidewalks.guess true --crossings.guess true \
+  -o "$OUT/grid3_crossings.net.xml" >/dev/null
 echo "wrote $OUT"

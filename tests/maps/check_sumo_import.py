@@ -3,7 +3,8 @@ own Python reader, from PyPI) reads from the same file.
 
 Usage: check_sumo_import.py NET_XML IMPORTED_MAP_JSON. Prints OK and exits 0 when
 lane count, every lane's length and the count of connections between normal
-lanes (U-turns aside, which the import leaves out) agree.
+lanes (U-turns aside, which the import leaves out) agree, and every pedestrian
+crossing is a crosswalk covering the crossing's lane with stop points.
 """
 import json
 import math
@@ -45,7 +46,7 @@ expected = 0
 for e in net.getEdges(withInternal=False):
     for l in e.getLanes():
         for c in l.getOutgoing():
-            if c.getDirection() != "t":
+            if c.getDirection() != "t" and l.allows("passenger") and c.getToLane().allows("passenger"):
                 expected += 1
 
 
@@ -62,4 +63,30 @@ def normal_successors(name, seen=()):
 found = sum(len(normal_successors(n)) for n, l in lanes.items() if not l["intersection"])
 if found != expected:
     fail(f"connections between normal lanes: sumolib {expected}, trafficmesh {found}")
-print(f"OK: {len(lanes)} lanes, {found} connections")
+
+crossings = [e for e in net.getEdges(withInternal=True) if e.getFunction() == "crossing"]
+areas = {c["name"]: c for c in ours["crosswalks"]}
+if len(crossings) != len(areas):
+    fail(f"crossings: sumolib {len(crossings)}, trafficmesh crosswalks {len(areas)}")
+
+
+def inside(polygon, p):
+    c = False
+    for a, b in zip(polygon, polygon[-1:] + polygon[:-1]):
+        if (a[1] > p[1]) != (b[1] > p[1]) and p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]:
+            c = not c
+    return c
+
+
+for e in crossings:
+    area = areas.get(e.getID())
+    if area is None:
+        fail(f"crossing {e.getID()} missing")
+    lane = e.getLanes()[0]
+    shape = lane.getShape()
+    mid = ((shape[0][0] + shape[-1][0]) / 2, (shape[0][1] + shape[-1][1]) / 2)
+    if area["area"]["shape"] != "polygon" or not inside(area["area"]["points"], mid):
+        fail(f"crossing {e.getID()}: area does not cover its centre {mid}")
+    if not area["stop_points"]:
+        fail(f"crossing {e.getID()}: no stop points")
+print(f"OK: {len(lanes)} lanes, {found} connections, {len(crossings)} crossings")

@@ -12,7 +12,9 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use trafficmesh_model::LightColor;
-use trafficmesh_sim::{World, WorldConfig};
+use trafficmesh_sim::crosswalk::OccupantType;
+use trafficmesh_sim::geometry::point_in_polygon;
+use trafficmesh_sim::{SimEvent, World, WorldConfig};
 
 fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -83,6 +85,98 @@ fn cross_net_imports_as_sumolib_reads_it() {
         "the dropped U-turns are reported: {summary}"
     );
     python_check(&python, "check_sumo_import.py", &[&net, &out]);
+}
+
+/// The committed 3 x 3 grid with sidewalks and crossings (netgenerate; the
+/// command is in configs/sumo/make_scenarios.sh).
+fn grid_with_crossings() -> PathBuf {
+    repo().join("configs/sumo/grid3_crossings.net.xml")
+}
+
+#[test]
+fn grid_with_crossings_imports_as_sumolib_reads_it() {
+    let Some(python) = support::python_with("sumolib", "sumolib==1.28.0") else {
+        return;
+    };
+    let net = grid_with_crossings();
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("grid3.map.json");
+    let imported = import(&net, &out);
+    assert!(
+        imported.status.success(),
+        "{}",
+        String::from_utf8_lossy(&imported.stderr)
+    );
+    let summary = String::from_utf8_lossy(&imported.stdout);
+    assert!(summary.contains("20 crosswalks"), "{summary}");
+    assert!(
+        summary.contains("sidewalks") && summary.contains("walking area"),
+        "what is left out is said: {summary}"
+    );
+    python_check(&python, "check_sumo_import.py", &[&net, &out]);
+}
+
+/// A pedestrian on every crossing of the grid: no vehicle's front enters one
+/// and vehicles stop for them; once they have left, traffic crosses again.
+#[test]
+fn pedestrians_on_imported_crossings_stop_traffic_until_they_leave() {
+    let net = trafficmesh_maps::load_network(&grid_with_crossings()).unwrap();
+    let areas: Vec<(String, Vec<glam::DVec2>)> = net
+        .crosswalks
+        .iter()
+        .map(|c| (c.name.clone(), c.polygon.clone()))
+        .collect();
+    assert_eq!(areas.len(), 20);
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            seed: 11,
+            max_vehicles: 60,
+            ..WorldConfig::default()
+        },
+    );
+    let pedestrian = |area: &str| format!("NPCPedestrian_{area}");
+    for (name, _) in &areas {
+        world
+            .crosswalk_enter(name, &pedestrian(name), OccupantType::NpcPedestrian)
+            .unwrap();
+    }
+    let mut stops = 0;
+    while world.time() < 120.0 {
+        world.step();
+        for v in world.vehicles() {
+            for (name, polygon) in &areas {
+                assert!(
+                    !point_in_polygon(v.front, polygon),
+                    "vehicle {} drove into occupied crossing {name} at t={:.2}",
+                    v.id,
+                    world.time()
+                );
+            }
+        }
+        stops += world
+            .drain_events()
+            .filter(|e| matches!(e, SimEvent::ZebraStop { .. }))
+            .count();
+    }
+    assert!(stops >= 10, "vehicles stop for the pedestrians: {stops}");
+    for (name, _) in &areas {
+        world.crosswalk_exit(name, &pedestrian(name)).unwrap();
+    }
+    let mut crossed = std::collections::HashSet::new();
+    while world.time() < 240.0 {
+        world.step();
+        for v in world.vehicles() {
+            if areas.iter().any(|(_, polygon)| point_in_polygon(v.front, polygon)) {
+                crossed.insert(v.id);
+            }
+        }
+    }
+    assert!(
+        crossed.len() >= 10,
+        "traffic crosses once they have left: {} vehicles",
+        crossed.len()
+    );
 }
 
 /// Vehicles enter the signalised junction of cross.net.xml only on green or

@@ -14,7 +14,7 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point, StopPointDef,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
 };
 
 use crate::import::{ImportError, Imported, attr, parse_xml, random_simulator};
@@ -27,8 +27,6 @@ const INTERSECTION_RADIUS: f64 = 60.0;
 /// The synthesised program: green and yellow of each of the two phases, seconds.
 const GREEN: f64 = 30.0;
 const YELLOW: f64 = 3.0;
-/// Vehicles stop this far before a crosswalk's edge, metres.
-const CROSSWALK_STOP_BACK: f64 = 1.0;
 
 type Xy = [f64; 3];
 
@@ -336,7 +334,8 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     let crosswalks = crosswalks
         .into_iter()
         .map(|(id, polygon)| {
-            let stops = crosswalk_stops(&polygon, &lanelets);
+            let stops =
+                crate::crossing::stop_points(&polygon, lanelets.iter().map(|l| &l.centre[..]));
             if stops.is_empty() {
                 warnings.push(format!(
                     "crosswalk lanelet {id}: no lane crosses it; it stops nobody"
@@ -584,54 +583,4 @@ fn synthesise_programs(
         info.len()
     ));
     groups
-}
-
-/// Where each lane's centreline enters the crosswalk polygon, set back a metre,
-/// with the lane's heading there.
-fn crosswalk_stops(polygon: &[Xy], lanelets: &[Lanelet]) -> Vec<StopPointDef> {
-    let inside = |p: Xy| {
-        let mut c = false;
-        let n = polygon.len();
-        for i in 0..n {
-            let (a, b) = (polygon[i], polygon[(i + n - 1) % n]);
-            if (a[1] > p[1]) != (b[1] > p[1])
-                && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-            {
-                c = !c;
-            }
-        }
-        c
-    };
-    let mut stops = Vec::new();
-    for l in lanelets {
-        for w in l.centre.windows(2) {
-            if inside(w[0]) || !inside(w[1]) {
-                continue;
-            }
-            // Bisect for the boundary, then step back along the segment.
-            let (mut lo, mut hi) = (0.0, 1.0);
-            let lerp = |t: f64| [0, 1, 2].map(|k| w[0][k] + (w[1][k] - w[0][k]) * t);
-            for _ in 0..30 {
-                let mid = (lo + hi) / 2.0;
-                if inside(lerp(mid)) {
-                    hi = mid
-                } else {
-                    lo = mid
-                }
-            }
-            let entry = lerp(lo);
-            let d = dist(w[0], w[1]).max(1e-9);
-            let (ux, uy) = ((w[1][0] - w[0][0]) / d, (w[1][1] - w[0][1]) / d);
-            stops.push(StopPointDef {
-                position: Point([
-                    entry[0] - ux * CROSSWALK_STOP_BACK,
-                    entry[1] - uy * CROSSWALK_STOP_BACK,
-                    entry[2],
-                ]),
-                heading_deg: Some(uy.atan2(ux).to_degrees()),
-            });
-            break;
-        }
-    }
-    stops
 }

@@ -4,6 +4,7 @@
 //! (SUMO `.net.xml`, Lanelet2 `.osm`).
 
 pub mod args;
+mod crossing;
 pub mod files;
 pub mod grid;
 pub mod import;

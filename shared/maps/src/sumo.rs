@@ -1,7 +1,8 @@
 //! SUMO `.net.xml` import: lanes (normal and internal) with their shapes,
 //! widths and speeds; connections as next links (through their `via` internal
 //! lanes) with turn directions; static `tlLogic` programs as one light group per
-//! signal link; right of way from each junction's `request` response bits.
+//! signal link; right of way from each junction's `request` response bits;
+//! pedestrian crossings as crosswalk areas, stopping the lanes that enter them.
 //!
 //! Coordinates stay in the network's frame (SUMO has already applied
 //! `netOffset`; the offset is kept in the map's name for the record).
@@ -10,7 +11,9 @@ use std::collections::{BTreeMap, HashMap};
 
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
-use trafficmesh_model::map::{LaneDef, LightGroupDef, LightProgram, MapFile, Point};
+use trafficmesh_model::map::{
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
+};
 
 use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml, random_simulator};
 
@@ -18,6 +21,8 @@ use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml, random_sim
 const DEFAULT_WIDTH: f64 = 3.2;
 /// Shorter lanes (SUMO's zero-length internal lanes) are stretched to it.
 const MIN_LANE_LENGTH: f64 = 0.15;
+/// SUMO's default crossing width.
+const DEFAULT_CROSSING_WIDTH: f64 = 4.0;
 
 struct Connection {
     from: String,
@@ -47,14 +52,20 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     let mut lanes: Vec<LaneDef> = Vec::new();
     let mut index: HashMap<String, usize> = HashMap::new();
     let mut skipped_pedestrian = 0;
+    let mut crossings: Vec<Node> = Vec::new();
+    let mut walking_areas = 0;
     for edge in net.children().filter(|n| n.has_tag_name("edge")) {
         let function = edge.attribute("function").unwrap_or("normal");
-        if matches!(function, "crossing" | "walkingarea") {
-            warnings.push(format!(
-                "edge '{}': {function} not imported (pedestrian crossings are not imported yet)",
-                attr(&doc, edge, "id")?
-            ));
-            continue;
+        match function {
+            "crossing" => {
+                crossings.push(edge);
+                continue;
+            }
+            "walkingarea" => {
+                walking_areas += 1;
+                continue;
+            }
+            _ => {}
         }
         for lane in edge.children().filter(|n| n.has_tag_name("lane")) {
             if !allows_cars(lane) {
@@ -86,6 +97,11 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     if skipped_pedestrian > 0 {
         warnings.push(format!(
             "{skipped_pedestrian} lane(s) closed to cars (sidewalks, bike lanes) not imported"
+        ));
+    }
+    if walking_areas > 0 {
+        warnings.push(format!(
+            "{walking_areas} walking area(s) not imported (pedestrians only; crossings are)"
         ));
     }
 
@@ -136,6 +152,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     let programs = tl_programs(&doc, net, &mut warnings)?;
     let light_groups = lights(&programs, &connections, &index, &mut lanes, &mut warnings)?;
     right_of_way(&doc, net, &index, &programs, &connections, &mut lanes)?;
+    let crosswalks = crosswalks(&doc, &crossings, &lanes, &mut warnings)?;
 
     // Vehicles enter where no other road leads in (SUMO demand comes from route
     // files; without one, the map's random simulator spawns at these lanes).
@@ -152,12 +169,99 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             name: format!("{name} (SUMO network, netOffset {offset})"),
             lanes,
             light_groups,
-            crosswalks: Vec::new(),
+            crosswalks,
             zebra_configs: Vec::new(),
             traffic_simulators,
         },
         warnings,
     })
+}
+
+/// Each crossing's lane (its centreline across the road and its width) as a
+/// rectangular crosswalk area, named after the crossing edge, with a stop point
+/// on every vehicle lane that enters it.
+fn crosswalks(
+    doc: &Document,
+    crossings: &[Node],
+    lanes: &[LaneDef],
+    warnings: &mut Vec<String>,
+) -> Result<Vec<CrosswalkDef>, ImportError> {
+    let centrelines: Vec<Vec<[f64; 3]>> = lanes
+        .iter()
+        .map(|l| l.waypoints.iter().map(|p| p.0).collect())
+        .collect();
+    let mut out = Vec::new();
+    for edge in crossings {
+        let id = attr(doc, *edge, "id")?;
+        let Some(lane) = edge.children().find(|n| n.has_tag_name("lane")) else {
+            return Err(ImportError::at(
+                doc,
+                *edge,
+                &format!("crossing '{id}' has no lane"),
+            ));
+        };
+        let line = shape(doc, lane)?;
+        if line.len() < 2 {
+            return Err(ImportError::at(
+                doc,
+                lane,
+                &format!("crossing '{id}': its shape needs two points"),
+            ));
+        }
+        let width = lane
+            .attribute("width")
+            .map(|_| attr_f64(doc, lane, "width"))
+            .transpose()?
+            .unwrap_or(DEFAULT_CROSSING_WIDTH);
+        let polygon = band(&line, width);
+        let stop_points = crate::crossing::stop_points(
+            &polygon.iter().map(|p| p.0).collect::<Vec<_>>(),
+            centrelines.iter().map(Vec::as_slice),
+        );
+        if stop_points.is_empty() {
+            warnings.push(format!(
+                "crossing '{id}': no vehicle lane enters it; it stops nobody"
+            ));
+        }
+        out.push(CrosswalkDef {
+            name: id.to_string(),
+            area: CrosswalkArea::Polygon { points: polygon },
+            stop_points,
+            max_detection_distance: 40.0,
+            forward_angle_tolerance_deg: 80.0,
+            stop_buffer: 1.5,
+            enable_debug_logs: false,
+            config: None,
+        });
+    }
+    Ok(out)
+}
+
+/// The band of `width` around a polyline (its two sides, one reversed).
+fn band(line: &[Point], width: f64) -> Vec<Point> {
+    let half = width / 2.0;
+    let side = |sign: f64| -> Vec<Point> {
+        line.iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let (a, b) = if i + 1 < line.len() {
+                    (line[i], line[i + 1])
+                } else {
+                    (line[i - 1], line[i])
+                };
+                let (dx, dy) = (b.0[0] - a.0[0], b.0[1] - a.0[1]);
+                let n = dx.hypot(dy).max(1e-9);
+                Point([
+                    p.0[0] - dy / n * half * sign,
+                    p.0[1] + dx / n * half * sign,
+                    p.0[2],
+                ])
+            })
+            .collect()
+    };
+    let mut polygon = side(1.0);
+    polygon.extend(side(-1.0).into_iter().rev());
+    polygon
 }
 
 fn allows_cars(lane: Node) -> bool {
