@@ -167,7 +167,10 @@ fn pedestrians_on_imported_crossings_stop_traffic_until_they_leave() {
     while world.time() < 240.0 {
         world.step();
         for v in world.vehicles() {
-            if areas.iter().any(|(_, polygon)| point_in_polygon(v.front, polygon)) {
+            if areas
+                .iter()
+                .any(|(_, polygon)| point_in_polygon(v.front, polygon))
+            {
                 crossed.insert(v.id);
             }
         }
@@ -308,7 +311,7 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
         },
     );
     let mut spawned = 0;
-    while world.time() < 600.0 {
+    while world.time() < 900.0 {
         world.step();
         spawned = spawned.max(world.vehicles().iter().map(|v| v.id + 1).max().unwrap_or(0));
         if world.ticks().is_multiple_of(5) {
@@ -460,4 +463,45 @@ fn a_sumo_route_file_drives_the_cluster_spawner() {
         details["branch_decisions"], 0,
         "route vehicles choose no branch: {details}"
     );
+}
+
+fn grid_demand() -> PathBuf {
+    repo().join("configs/sumo/grid3_crossings.rou.xml")
+}
+
+/// `bench vs-sumo` runs SUMO itself (eclipse-sumo from PyPI) and trafficmesh
+/// on the same grid and demand: both complete every trip, and trafficmesh's
+/// mean travel and waiting times are in SUMO's range.
+#[test]
+fn trip_statistics_on_a_sumo_demand_are_in_sumos_range() {
+    let Some(python) = support::python_with("sumo", "eclipse-sumo==1.28.0") else {
+        return;
+    };
+    let sumo = Path::new(&python).with_file_name("sumo");
+    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["bench", "vs-sumo", "--duration", "1200", "--json", "--net"])
+        .arg(grid_with_crossings())
+        .arg("--routes")
+        .arg(grid_demand())
+        .arg("--sumo")
+        .arg(&sumo)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let (theirs, ours) = (&report["sumo"], &report["trafficmesh"]);
+    assert_eq!(theirs["trips_completed"], 400, "{report}");
+    assert_eq!(ours["trips_completed"], 400, "{report}");
+    for figure in ["mean_travel_time_s", "mean_waiting_time_s"] {
+        let ratio = ours[figure].as_f64().unwrap() / theirs[figure].as_f64().unwrap();
+        assert!(
+            (0.67..=1.5).contains(&ratio),
+            "{figure}: trafficmesh / SUMO = {ratio:.2}: {report}"
+        );
+    }
+    assert!(report["speedup"].as_f64().unwrap() > 1.0, "{report}");
 }

@@ -1,8 +1,10 @@
 //! Deadlock breaking (the seed's FORCING_PRIORITY, "override to break a
-//! deadlock"). When stopped vehicles wait on each other in a cycle (each one's
-//! `dominating` vehicle is the next), the lowest id in the cycle is let through
+//! deadlock"). When stopped vehicles wait on each other in a cycle (each one
+//! for its `dominating` vehicle while it yields, else for the body in front of
+//! it), the lowest id in the cycle among those held by a rule is let through
 //! its junction, and the vehicle it was waiting for holds in FORCING_PRIORITY
-//! until the released one has crossed its path.
+//! until the released one has crossed its path. A cycle of bodies alone has
+//! nobody a rule could release.
 
 use rayon::prelude::*;
 use trafficmesh_model::YieldPhase;
@@ -23,42 +25,56 @@ pub fn break_cycles(
     vehicles: &[Vehicle],
     perceptions: &mut [Perception],
 ) -> usize {
-    // Index of the vehicle each one is stopped waiting for (vehicles are sorted by id).
-    let waits: Vec<u32> = vehicles
+    // Index of the vehicle each one is stopped waiting for, and whether a rule
+    // (rather than a body) holds it (vehicles are sorted by id).
+    let waits: Vec<(u32, bool)> = vehicles
         .par_iter()
         .zip(perceptions.par_iter())
         .map(|(v, p)| {
-            let waiting = p.yield_phase.is_yielding() && v.speed < STOPPED_SPEED;
-            p.dominating
-                .filter(|_| waiting)
-                .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok())
-                .map_or(NOBODY, |i| i as u32)
+            if v.speed >= STOPPED_SPEED {
+                return (NOBODY, false);
+            }
+            if p.yield_phase.is_yielding() {
+                let rule = p
+                    .dominating
+                    .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok());
+                return rule.map_or((NOBODY, false), |i| (i as u32, true));
+            }
+            (p.front_vehicle.unwrap_or(NOBODY), false)
         })
         .collect();
     let n = vehicles.len();
     let mut walk_of = vec![NOBODY; n];
     let mut releases: Vec<(usize, usize)> = Vec::new();
     for start in 0..n {
-        if walk_of[start] != NOBODY || waits[start] == NOBODY {
+        if walk_of[start] != NOBODY || waits[start].0 == NOBODY {
             continue;
         }
         let mut cur = start;
         loop {
             walk_of[cur] = start as u32;
-            let next = waits[cur];
+            let next = waits[cur].0;
             if next == NOBODY {
                 break;
             }
             let next = next as usize;
             if walk_of[next] == start as u32 {
-                // A new cycle through `next`: release its lowest id (lowest index).
-                let mut lowest = next;
-                let mut k = waits[next] as usize;
-                while k != next {
-                    lowest = lowest.min(k);
-                    k = waits[k] as usize;
+                // A new cycle through `next`: release its lowest id (lowest
+                // index) among the rule-held.
+                let mut lowest: Option<usize> = None;
+                let mut k = next;
+                loop {
+                    if waits[k].1 {
+                        lowest = Some(lowest.map_or(k, |l| l.min(k)));
+                    }
+                    k = waits[k].0 as usize;
+                    if k == next {
+                        break;
+                    }
                 }
-                releases.push((lowest, waits[lowest] as usize));
+                if let Some(lowest) = lowest {
+                    releases.push((lowest, waits[lowest].0 as usize));
+                }
                 break;
             }
             if walk_of[next] != NOBODY {

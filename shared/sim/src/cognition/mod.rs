@@ -37,6 +37,8 @@ pub struct Snapshot<'a> {
 #[derive(Clone, Copy, Debug)]
 pub struct Perception {
     pub distance_to_front: f64,
+    /// Index of the vehicle that is the front obstacle, if one is.
+    pub front_vehicle: Option<u32>,
     pub is_turning: bool,
     pub light_lane: Option<LaneId>,
     pub distance_to_light: f64,
@@ -68,8 +70,10 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
                 ..ZebraState::default()
             },
         };
+    let front = obstacles::front_obstacle(snap, i);
     Perception {
-        distance_to_front: obstacles::distance_to_front(snap, i),
+        distance_to_front: front.distance,
+        front_vehicle: front.vehicle,
         is_turning: curve::is_turning(snap.net, v),
         light_lane: light.lane,
         distance_to_light: light.distance,

@@ -12,35 +12,78 @@ use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
 /// A stopped vehicle this close to the start of a junction's exit lane leaves no
-/// room to enter the junction behind it (metres beyond one's own length).
-const EXIT_ROOM_MARGIN: f64 = 2.0;
+/// room to enter the junction behind it (metres beyond one's own length): the
+/// gap at which a follower comes to rest (Decision's front-vehicle distance plus
+/// its stop distance at standstill), so that one who enters clears the junction.
+const EXIT_ROOM_MARGIN: f64 =
+    crate::decision::MIN_FRONT_VEHICLE_DISTANCE + 3.0 * crate::decision::MIN_STOP_DISTANCE;
 /// Vehicles on the exit lane slower than this count as not making room.
 const EXIT_MOVING_SPEED: f64 = 3.0;
 
-pub fn distance_to_front(snap: &Snapshot, i: usize) -> f64 {
+/// The nearest body ahead: along-path metres to it and, when it is another
+/// vehicle, that vehicle's index (deadlock breaking follows these waits).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrontObstacle {
+    pub distance: f64,
+    pub vehicle: Option<u32>,
+}
+
+impl FrontObstacle {
+    const NONE: FrontObstacle = FrontObstacle {
+        distance: f64::INFINITY,
+        vehicle: None,
+    };
+
+    fn nearer(self, other: FrontObstacle) -> FrontObstacle {
+        if other.distance < self.distance {
+            other
+        } else {
+            self
+        }
+    }
+}
+
+pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     let v = &snap.vehicles[i];
     let net = snap.net;
     let range = needed_lookahead(v.speed, snap.config);
-    let mut best = f64::INFINITY;
+    let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
     for (k, lane, offset) in lanes_ahead(net, v) {
-        if offset > range || offset > best {
+        if offset > range || offset > best.distance {
             break;
         }
-        best = best.min(leader_on_lane(snap, i, lane, offset));
-        best = best.min(conflicting_bodies(snap, i, lane, offset, range, best));
-        if k >= 1 && !on_intersection && net.lane(lane).intersection && !exit_has_room(snap, v, k) {
-            best = best.min(offset.max(0.0));
+        best = best.nearer(leader_on_lane(snap, i, lane, offset));
+        best = best.nearer(conflicting_bodies(
+            snap,
+            i,
+            lane,
+            offset,
+            range,
+            best.distance,
+        ));
+        if k >= 1
+            && !on_intersection
+            && net.lane(lane).intersection
+            && let Some(exit) = exit_blocked_by(snap, v, k)
+        {
+            best = best.nearer(FrontObstacle {
+                distance: offset.max(0.0),
+                vehicle: Some(exit),
+            });
         }
     }
     if let Some(ego) = snap.ego {
-        best = best.min(ego_distance(net, v, ego, range));
+        best = best.nearer(FrontObstacle {
+            distance: ego_distance(net, v, ego, range),
+            vehicle: None,
+        });
     }
     best
 }
 
 /// The nearest vehicle ahead on `lane` whose body is ahead of ours.
-fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> f64 {
+fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> FrontObstacle {
     let v = &snap.vehicles[i];
     let occupants = snap.index.on_lane(lane);
     // Sorted by rear: skip every body whose rear is behind ours.
@@ -52,13 +95,16 @@ fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> f64 {
         let rear = offset + occ.rear;
         let front = offset + occ.front;
         if rear > -v.length && front > 0.0 {
-            return rear.max(0.0);
+            return FrontObstacle {
+                distance: rear.max(0.0),
+                vehicle: Some(occ.vehicle),
+            };
         }
     }
-    f64::INFINITY
+    FrontObstacle::NONE
 }
 
-/// Bodies standing in the conflict zones of `lane` ahead of us.
+/// Bodies standing in the conflict zones of `lane` ahead of us, nearer than `best`.
 fn conflicting_bodies(
     snap: &Snapshot,
     i: usize,
@@ -66,14 +112,17 @@ fn conflicting_bodies(
     offset: f64,
     range: f64,
     best: f64,
-) -> f64 {
+) -> FrontObstacle {
     let v = &snap.vehicles[i];
-    let mut nearest = best;
+    let mut nearest = FrontObstacle {
+        distance: best,
+        vehicle: None,
+    };
     for z in snap.index.blocked_zones(lane) {
         let zone_start = offset + z.start;
         if offset + z.end <= 0.0
             || zone_start > range
-            || zone_start >= nearest
+            || zone_start >= nearest.distance
             || z.vehicle as usize == i
             || v.path.contains(&z.source)
         {
@@ -86,25 +135,24 @@ fn conflicting_bodies(
             None if zone_start <= 0.0 => continue,
             None => zone_start,
         };
-        if d > 0.0 && d < nearest {
-            nearest = d;
+        if d > 0.0 && d < nearest.distance {
+            nearest = FrontObstacle {
+                distance: d,
+                vehicle: Some(z.vehicle),
+            };
         }
     }
     nearest
 }
 
-/// "Don't block the box": is there room on the lane after the junction lane path[k]?
-fn exit_has_room(snap: &Snapshot, v: &Vehicle, k: usize) -> bool {
-    let Some(&exit) = v.path.get(k + 1) else {
-        return true;
-    };
-    match snap.index.on_lane(exit).first() {
-        Some(occ) => {
-            occ.rear >= v.length + EXIT_ROOM_MARGIN
-                || snap.vehicles[occ.vehicle as usize].speed >= EXIT_MOVING_SPEED
-        }
-        None => true,
-    }
+/// "Don't block the box": the vehicle that leaves no room on the lane after
+/// the junction lane path[k], if one does.
+fn exit_blocked_by(snap: &Snapshot, v: &Vehicle, k: usize) -> Option<u32> {
+    let exit = *v.path.get(k + 1)?;
+    let occ = snap.index.on_lane(exit).first()?;
+    let room = occ.rear >= v.length + EXIT_ROOM_MARGIN
+        || snap.vehicles[occ.vehicle as usize].speed >= EXIT_MOVING_SPEED;
+    (!room).then_some(occ.vehicle)
 }
 
 /// Along-path distance to the ego's box where it enters our corridor (our width).

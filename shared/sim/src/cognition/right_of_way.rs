@@ -99,6 +99,7 @@ struct Ctx<'a, 'b> {
     v: &'a Vehicle,
     info: RowInfo,
     candidates: &'a [u32],
+    yield_lane: Option<LaneId>,
 }
 
 /// A predicate's hit: the vehicle yielded to and where to stop.
@@ -108,37 +109,39 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = snap.row[i];
     let candidates = snap.junctions.of(info.junction);
+    let yield_lane = current_yield_lane(snap, v, &info);
     let ctx = Ctx {
         snap,
         i,
         v,
         info,
         candidates,
+        yield_lane,
     };
     let keep = |phase, hit: Hit| match hit {
         Some((dominating, point)) => RowDecision {
             phase,
             point,
-            lane: v.yield_lane,
+            lane: yield_lane,
             dominating,
         },
         None => RowDecision {
             phase: YieldPhase::None,
             point: v.yield_point,
-            lane: v.yield_lane,
+            lane: yield_lane,
             dominating: None,
         },
     };
     let to = |phase, (dominating, point): (Option<VehicleId>, DVec2)| RowDecision {
         phase,
         point,
-        lane: v.yield_lane,
+        lane: yield_lane,
         dominating,
     };
     let stay = |phase| RowDecision {
         phase,
         point: v.yield_point,
-        lane: v.yield_lane,
+        lane: yield_lane,
         dominating: None,
     };
     let on = info.on_intersection;
@@ -234,6 +237,21 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
             YieldPhase::ForcingPriority,
             ctx.some_vehicle_forcing_priority(),
         ),
+    }
+}
+
+/// The lane whose rules the vehicle obeys. The reference sets it as the vehicle
+/// approaches its junction; a junction path of several lanes (SUMO splits a
+/// turn that waits inside the junction at an internal junction) brings its own
+/// rules with its later lanes, which apply once the vehicle is on them.
+fn current_yield_lane(snap: &Snapshot, v: &Vehicle, info: &RowInfo) -> Option<LaneId> {
+    match info.first_int {
+        Some((0, lane))
+            if Some(lane) != v.yield_lane && !snap.net.lane(lane).right_of_way.is_empty() =>
+        {
+            Some(lane)
+        }
+        _ => v.yield_lane,
     }
 }
 
@@ -369,10 +387,14 @@ impl Ctx<'_, '_> {
 
     /// A vehicle that should yield to us is crossing anyway (it was let through
     /// to break a deadlock, or it ignored us): hold here until it has passed.
+    /// One still before the junction counts too (the reference looks only at
+    /// vehicles on it), unless its red light holds it: holding for that one
+    /// would block the junction until its light turns green.
     fn some_vehicle_forcing_priority(&self) -> Hit {
         self.others()
             .find(|(o, oi)| {
                 !o.yield_phase.is_yielding_due_to_rules()
+                    && !oi.waiting_at_red
                     && self.has_priority(&self.info, oi)
                     && if self.info.on_intersection && oi.on_intersection {
                         self.intersect_now_front(o, oi)
@@ -385,10 +407,11 @@ impl Ctx<'_, '_> {
 
     /// Lane rules: yield to vehicles (or the ego) on the lanes our junction lane yields to.
     fn should_yield_due_to_lanes(&self, on_intersection: bool) -> Hit {
-        if !on_intersection && self.forced_through() {
+        // Released by deadlock breaking: through this junction, before it or on it.
+        if self.forced_through() {
             return None;
         }
-        let lane_id = self.v.yield_lane?;
+        let lane_id = self.yield_lane?;
         let lane = self.net().lane(lane_id);
         let stop = if on_intersection {
             lane.stop_center
