@@ -4,7 +4,8 @@
 #
 #   configs/sumo/make_scenarios.sh [OUT_DIR]      (default out/sumo-scenarios)
 #
-# Writes grid{1k,10k,50k}.net.xml and .rou.xml, and grid3_crossings.net.xml: signalised grids (200 m blocks,
+# Writes grid{1k,10k,50k}.net.xml and .rou.xml, and grid3_crossings.net.xml
+# with its two demands: signalised grids (200 m blocks,
 # two lanes per direction, no U-turns) with random routed trips for 900 s,
 # sized for about 1,000, 10,000 and 50,000 vehicles running at once
 # (insertion rate x mean trip time). Then, for example:
@@ -36,4 +37,12 @@ done
 "$VENV/bin/netgenerate" --grid --grid.number 3 --grid.length 200 -L 2 --tls.guess true \
   --no-turnarounds true --sidewalks.guess true --crossings.guess true \
   -o "$OUT/grid3_crossings.net.xml" >/dev/null
+# Its demands (committed as configs/sumo/grid3_crossings{,_saturated}.rou.xml):
+# a departure every 2 s and every 1.5 s for 600 s.
+for scenario in "grid3_crossings 2" "grid3_crossings_saturated 1.5"; do
+  set -- $scenario
+  "$VENV/bin/python" "$SUMO_HOME/tools/randomTrips.py" -n "$OUT/grid3_crossings.net.xml" \
+    -r "$OUT/$1.rou.xml" -o "$OUT/$1.trips.xml" -b 0 -e 600 -p "$2" --seed 7 \
+    --fringe-factor 5 >/dev/null
+done
 echo "wrote $OUT"

@@ -465,13 +465,93 @@ fn a_sumo_route_file_drives_the_cluster_spawner() {
     );
 }
 
+/// randomTrips on the grid: a departure every 2 s for 600 s (300 vehicles), and
+/// every 1.5 s (400, near what the grid carries: SUMO's vehicles wait a quarter
+/// of their trip).
 fn grid_demand() -> PathBuf {
     repo().join("configs/sumo/grid3_crossings.rou.xml")
 }
 
+fn saturated_grid_demand() -> PathBuf {
+    repo().join("configs/sumo/grid3_crossings_saturated.rou.xml")
+}
+
+/// The 400 routed vehicles of a SUMO demand near the grid's capacity all reach
+/// their route's end, and no two ever overlap: junctions whose turns SUMO splits
+/// (a left turn waiting inside the junction) neither lock up nor let vehicles
+/// through each other, and the lane changes routes need (112 of them) find gaps
+/// or swap.
+#[test]
+fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
+    let (net, _) = trafficmesh_maps::load_network_with_routes(
+        &grid_with_crossings(),
+        Some(&saturated_grid_demand()),
+    )
+    .unwrap();
+    let mut world = World::new(
+        net,
+        WorldConfig {
+            seed: 2,
+            max_vehicles: 100_000,
+            ..WorldConfig::default()
+        },
+    );
+    let mut finished = 0;
+    while world.time() < 1200.0 {
+        world.step();
+        finished += world
+            .drain_events()
+            .filter(|e| {
+                matches!(e, SimEvent::Despawned(t) if t.reason == trafficmesh_sim::DespawnReason::RouteEnd)
+            })
+            .count();
+        if world.ticks().is_multiple_of(5) {
+            let pairs = sim_support::overlapping_pairs(world.vehicles(), 0.1);
+            let net = world.network();
+            let describe = |id: u64| {
+                let v = world.vehicle(id).unwrap();
+                format!(
+                    "#{id} {:?}/{:?} on {:?} prev {:?} s={:.1} v={:.1} forced={:?} dom={:?} df={:.1}",
+                    v.yield_phase,
+                    v.speed_mode,
+                    v.path
+                        .iter()
+                        .map(|&l| net.lane(l).name.as_str())
+                        .collect::<Vec<_>>(),
+                    v.prev_lane.map(|l| net.lane(l).name.as_str()),
+                    v.s,
+                    v.speed,
+                    v.forced_through,
+                    v.dominating,
+                    v.distance_to_front
+                )
+            };
+            assert!(
+                pairs.is_empty(),
+                "overlapping vehicles at t={:.2}: {}",
+                world.time(),
+                pairs
+                    .iter()
+                    .map(|&(a, b)| format!("{} / {}", describe(a), describe(b)))
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            );
+        }
+    }
+    assert_eq!(
+        finished,
+        400,
+        "every vehicle finishes its route; {} still on the map",
+        world.vehicles().len()
+    );
+}
+
 /// `bench vs-sumo` runs SUMO itself (eclipse-sumo from PyPI) and trafficmesh
 /// on the same grid and demand: both complete every trip, and trafficmesh's
-/// mean travel and waiting times are in SUMO's range.
+/// mean travel and waiting times are within a quarter of SUMO's. (Nearer the
+/// grid's capacity they part: the reference's car following keeps 8.5 m at
+/// standstill and restarts slowly, so its junctions pass fewer vehicles than
+/// SUMO's; the README gives the figures.)
 #[test]
 fn trip_statistics_on_a_sumo_demand_are_in_sumos_range() {
     let Some(python) = support::python_with("sumo", "eclipse-sumo==1.28.0") else {
@@ -494,12 +574,12 @@ fn trip_statistics_on_a_sumo_demand_are_in_sumos_range() {
     );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let (theirs, ours) = (&report["sumo"], &report["trafficmesh"]);
-    assert_eq!(theirs["trips_completed"], 400, "{report}");
-    assert_eq!(ours["trips_completed"], 400, "{report}");
+    assert_eq!(theirs["trips_completed"], 300, "{report}");
+    assert_eq!(ours["trips_completed"], 300, "{report}");
     for figure in ["mean_travel_time_s", "mean_waiting_time_s"] {
         let ratio = ours[figure].as_f64().unwrap() / theirs[figure].as_f64().unwrap();
         assert!(
-            (0.67..=1.5).contains(&ratio),
+            (0.8..=1.25).contains(&ratio),
             "{figure}: trafficmesh / SUMO = {ratio:.2}: {report}"
         );
     }

@@ -26,7 +26,7 @@ struct Network<'m> {
     /// Normal lanes of each edge, by lane index.
     edge_lanes: HashMap<&'m str, Vec<&'m str>>,
     next: HashMap<&'m str, &'m [String]>,
-    /// Routes that needed a lane shift at an edge's start.
+    /// Routes that need a lane change on the way.
     shifts: std::cell::Cell<usize>,
 }
 
@@ -89,8 +89,8 @@ impl<'m> Network<'m> {
                         further.push(p);
                     } else if n.rsplit_once('_').map(|(e, _)| e) == Some(edges[k]) {
                         // The lane reached first; else a sibling lane of the same
-                        // edge (no lane changes in the simulation: the vehicle
-                        // shifts lanes where it enters the edge).
+                        // edge, which the vehicle changes to on the way: the
+                        // route goes on from the sibling's successors.
                         let siblings = self
                             .edge_lanes
                             .get(edges[k])
@@ -104,8 +104,8 @@ impl<'m> Network<'m> {
                                     self.shifts.set(self.shifts.get() + 1);
                                 }
                                 let mut out: Vec<String> =
-                                    p[..p.len() - 1].iter().map(|s| s.to_string()).collect();
-                                out.extend(rest);
+                                    p.iter().map(|s| s.to_string()).collect();
+                                out.extend(rest.into_iter().skip(1));
                                 return Some(out);
                             }
                         }
@@ -270,7 +270,7 @@ pub fn import(text: &str, map: &MapFile) -> Result<Demand, ImportError> {
     }
     if net.shifts.get() > 0 {
         warnings.push(format!(
-            "{} route(s) need a lane change, which the simulation does not model: those vehicles shift lanes where they enter the edge",
+            "{} route(s) need a lane change on the way: those vehicles move across at the first gap and wait before the road's end for one",
             net.shifts.get()
         ));
     }

@@ -11,8 +11,14 @@ pub struct Occupant {
     /// Arc lengths of the rear and front bumpers on this lane (may lie outside it).
     pub rear: f64,
     pub front: f64,
-    /// Index of the vehicle in the world's vehicle list.
+    pub speed: f64,
+    /// Index of the vehicle in the world's vehicle list when the index was
+    /// built (vehicles spawned or removed since shift it: read `speed` here
+    /// rather than the vehicle).
     pub vehicle: u32,
+    /// Not a body: a vehicle beside this lane waiting to change onto it, at its
+    /// place there, so that those coming up behind leave it room.
+    pub ghost: bool,
 }
 
 /// A vehicle body standing in a conflict zone of a lane that is not its own.
@@ -58,9 +64,23 @@ impl LaneIndex {
                 Occupant {
                     rear: v.rear_s(),
                     front: v.s,
+                    speed: v.speed,
                     vehicle: i as u32,
+                    ghost: false,
                 },
             ));
+            if let Some(target) = crate::lane_change::pending_target(net, v) {
+                items.push((
+                    target,
+                    Occupant {
+                        rear: v.rear_s(),
+                        front: v.s,
+                        speed: v.speed,
+                        vehicle: i as u32,
+                        ghost: true,
+                    },
+                ));
+            }
             if v.rear_s() < 0.0
                 && let Some(p) = v.prev_lane
             {
@@ -70,14 +90,16 @@ impl LaneIndex {
                     Occupant {
                         rear: len + v.rear_s(),
                         front: len + v.s,
+                        speed: v.speed,
                         vehicle: i as u32,
+                        ghost: false,
                     },
                 ));
             }
         }
         let blocked = &mut self.blocked_items;
         blocked.clear();
-        for &(lane, occ) in items.iter() {
+        for &(lane, occ) in items.iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
                 if occ.front >= c.a0 && occ.rear <= c.a1 {
                     blocked.push((

@@ -73,6 +73,14 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             });
         }
     }
+    // A lane change the route needs and has not found a gap for: wait before
+    // the lane's end.
+    if crate::lane_change::pending_target(net, v).is_some() {
+        best = best.nearer(FrontObstacle {
+            distance: (net.lane(v.path[0]).length() - v.s).max(0.0),
+            vehicle: None,
+        });
+    }
     if let Some(ego) = snap.ego {
         best = best.nearer(FrontObstacle {
             distance: ego_distance(net, v, ego, range),
@@ -94,6 +102,11 @@ fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> FrontObs
         }
         let rear = offset + occ.rear;
         let front = offset + occ.front;
+        // A vehicle waiting to change onto this lane is given room by those
+        // who can still stop before it; one already beside it drives on.
+        if occ.ghost && rear < ghost_room(v.speed, snap.config) {
+            continue;
+        }
         if rear > -v.length && front > 0.0 {
             return FrontObstacle {
                 distance: rear.max(0.0),
@@ -143,6 +156,13 @@ fn conflicting_bodies(
         }
     }
     nearest
+}
+
+/// How far ahead a lane-change ghost must be for a vehicle to stop for it: where
+/// the Decision step would start a normal stop.
+fn ghost_room(speed: f64, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
+    crate::decision::MIN_FRONT_VEHICLE_DISTANCE
+        + crate::decision::StopDistances::at(speed, config).stop
 }
 
 /// "Don't block the box": the vehicle that leaves no room on the lane after

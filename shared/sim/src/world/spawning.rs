@@ -127,8 +127,7 @@ impl World {
         for &p in &l.prev {
             let len = self.net.lane(p).length();
             let arriving = self.index.on_lane(p).iter().any(|o| {
-                let v = &self.vehicles[o.vehicle as usize];
-                len - o.front < StopDistances::at(v.speed, &self.config.vehicle).stop + CLEARANCE
+                len - o.front < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
             });
             if arriving {
                 return false;

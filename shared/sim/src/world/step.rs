@@ -10,6 +10,7 @@ use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
+use crate::lane_change;
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 use crate::visualization::{turn_signal, update_trip};
@@ -45,6 +46,9 @@ impl World {
         self.spawn_phase();
         self.follow_lanes();
         self.index.rebuild(&self.net, &self.vehicles);
+        if self.change_lanes() {
+            self.index.rebuild(&self.net, &self.vehicles);
+        }
 
         let mut perceptions = self.cognition();
         deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
@@ -104,6 +108,41 @@ impl World {
                 });
             }
         }
+    }
+
+    /// The lane changes routes need, where there is a gap (or where two
+    /// vehicles side by side each want the other's lane: they swap). Found in
+    /// parallel against this tick's lane index, then made in vehicle order so
+    /// that two vehicles never take the same gap. Returns whether any was made.
+    fn change_lanes(&mut self) -> bool {
+        let (net, motion) = (&self.net, &self.config.vehicle);
+        let (index, vehicles) = (&self.index, &self.vehicles);
+        let candidates: Vec<lane_change::Change> = vehicles
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, _)| lane_change::plan(net, index, vehicles, i, motion))
+            .collect();
+        let mut moved: Vec<lane_change::Moved> = Vec::new();
+        let mut changed = vec![false; self.vehicles.len()];
+        for c in candidates {
+            let partner = c.swap_with.map(|(j, _)| j);
+            if changed[c.vehicle] || partner.is_some_and(|j| changed[j]) {
+                continue;
+            }
+            let v = &self.vehicles[c.vehicle];
+            if !lane_change::clear_of(&moved, v, c.target, motion) {
+                continue;
+            }
+            moved.push(lane_change::Moved::of(v, c.target));
+            lane_change::apply(&self.net, &mut self.vehicles[c.vehicle], c.target);
+            changed[c.vehicle] = true;
+            if let Some((j, their_target)) = c.swap_with {
+                moved.push(lane_change::Moved::of(&self.vehicles[j], their_target));
+                lane_change::apply(&self.net, &mut self.vehicles[j], their_target);
+                changed[j] = true;
+            }
+        }
+        !moved.is_empty()
     }
 
     /// Parallel perception of every vehicle from the same snapshot.
