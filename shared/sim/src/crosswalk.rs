@@ -173,9 +173,13 @@ pub fn try_get_blocked_stop(
     position: DVec2,
     forward: DVec2,
 ) -> Option<(f64, usize)> {
+    let occupied = occupancy.occupied_areas();
+    if occupied.is_empty() {
+        return None;
+    }
     let forward = forward.normalize_or_zero();
     let mut best: Option<(f64, usize)> = None;
-    for &i in occupancy.occupied_areas() {
+    for &i in occupied {
         let area = &areas[i];
         for stop in &area.stops {
             let to_stop = stop.position - position;

@@ -77,7 +77,6 @@ impl Moved {
 /// Vehicle `i`'s lane change this tick, if it needs one and has room (the
 /// index is this tick's).
 pub fn plan(
-    net: &LaneNetwork,
     index: &LaneIndex,
     vehicles: &[Vehicle],
     i: usize,
@@ -88,7 +87,7 @@ pub fn plan(
     if v.should_despawn || v.rear_s() < 0.0 {
         return None;
     }
-    let target = pending_target(net, v)?;
+    let target = v.lane_change?;
     let blockers = blockers(index, v, target, config);
     match blockers[..] {
         [] => Some(Change {
@@ -100,7 +99,7 @@ pub fn plan(
         [j] => {
             let o = &vehicles[j as usize];
             let alongside = o.rear_s() < v.s && o.s > v.rear_s();
-            let theirs = pending_target(net, o).filter(|&t| t == v.path[0])?;
+            let theirs = o.lane_change.filter(|&t| t == v.path[0])?;
             (alongside
                 && o.rear_s() >= 0.0
                 && blockers_except(index, o, theirs, config, i as u32).is_empty())
@@ -158,6 +157,7 @@ pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, config: &NpcVehicl
 pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
     let old = net.lane(v.path[0]).length();
     v.path[0] = target;
+    v.lane_change = None;
     v.path_length += net.lane(target).length() - old;
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
 }

@@ -69,7 +69,7 @@ impl LaneIndex {
                     ghost: false,
                 },
             ));
-            if let Some(target) = crate::lane_change::pending_target(net, v) {
+            if let Some(target) = v.lane_change {
                 items.push((
                     target,
                     Occupant {

@@ -82,9 +82,13 @@ impl Lights {
         lights
     }
 
+    /// Refreshes the groups whose state has run out by `t` (time only moves
+    /// forward; a changed control is evaluated when it is set).
     pub fn update(&mut self, t: f64) {
         for (state, control) in self.states.iter_mut().zip(&self.controls) {
-            *state = evaluate(control, t);
+            if t >= state.next_change {
+                *state = evaluate(control, t);
+            }
         }
     }
 
@@ -130,5 +134,21 @@ mod tests {
         assert_eq!(program_state(&p, 18.0).next_change, 25.0);
         assert_eq!(program_state(&p, 4.0).color, LightColor::Red);
         assert_eq!(program_state(&p, 25.0).color, LightColor::Green);
+    }
+
+    #[test]
+    fn update_tick_by_tick_matches_the_program() {
+        let p = LightProgram {
+            green: 10.0,
+            yellow: 3.0,
+            red: 7.0,
+            offset: 5.0,
+        };
+        let mut lights = Lights::new([p]);
+        for tick in 0..5000 {
+            let t = tick as f64 * 0.02;
+            lights.update(t);
+            assert_eq!(lights.state(0).color, program_state(&p, t).color, "t={t}");
+        }
     }
 }

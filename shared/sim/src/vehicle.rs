@@ -110,6 +110,9 @@ pub struct Vehicle {
     pub dominating: Option<VehicleId>,
     /// Set by deadlock breaking: ignore lane rules while entering this junction.
     pub forced_through: Option<u32>,
+    /// The lane beside path[0] that the route goes on from (a lane change it
+    /// needs), kept up to date as the path changes.
+    pub lane_change: Option<LaneId>,
     pub zebra: ZebraState,
 
     // Decision and control outputs.

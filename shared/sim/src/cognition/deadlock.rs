@@ -30,6 +30,7 @@ pub fn break_cycles(
     let waits: Vec<(u32, bool)> = vehicles
         .par_iter()
         .zip(perceptions.par_iter())
+        .with_min_len(crate::world::MIN_VEHICLES_PER_TASK)
         .map(|(v, p)| {
             if v.speed >= STOPPED_SPEED {
                 return (NOBODY, false);

@@ -75,7 +75,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     }
     // A lane change the route needs and has not found a gap for: wait before
     // the lane's end.
-    if crate::lane_change::pending_target(net, v).is_some() {
+    if v.lane_change.is_some() {
         best = best.nearer(FrontObstacle {
             distance: (net.lane(v.path[0]).length() - v.s).max(0.0),
             vehicle: None,

@@ -20,6 +20,7 @@ use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
 use crate::vehicle::{Vehicle, VehicleId};
 
 pub use spawning::SpawnRejection;
+pub use step::MIN_VEHICLES_PER_TASK;
 
 /// Run parameters, with the seed's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -192,6 +192,7 @@ impl World {
             yield_point: DVec2::ZERO,
             dominating: None,
             forced_through: None,
+            lane_change: None,
             zebra: ZebraState::default(),
             speed_mode: Default::default(),
             pose: Pose::default(),

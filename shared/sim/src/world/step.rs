@@ -38,6 +38,11 @@ pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
 }
 
+/// Vehicles below which a parallel phase runs on one thread: waking the other
+/// threads for a few hundred vehicles costs more than it saves (a 1,000-vehicle
+/// SUMO grid ran faster on one thread than on two).
+pub const MIN_VEHICLES_PER_TASK: usize = 1024;
+
 impl World {
     /// Advances the world by one tick of `config.dt` seconds.
     pub fn step(&mut self) {
@@ -57,6 +62,7 @@ impl World {
         self.vehicles
             .par_iter_mut()
             .zip(perceptions.par_iter())
+            .with_min_len(MIN_VEHICLES_PER_TASK)
             .for_each(|(v, p)| {
                 p.apply(v);
                 if v.should_despawn {
@@ -81,12 +87,18 @@ impl World {
         let decisions: Vec<Vec<BranchChoice>> = self
             .vehicles
             .par_iter_mut()
+            .with_min_len(MIN_VEHICLES_PER_TASK)
             .map(|v| {
                 let mut made = Vec::new();
                 if v.should_despawn {
                     return made;
                 }
+                let before = (v.path[0], v.path.get(1).copied());
                 advance_and_extend(net, policy, v, motion, &mut made);
+                // The lane change depends on the first two lanes only.
+                if before != (v.path[0], v.path.get(1).copied()) {
+                    v.lane_change = lane_change::pending_target(net, v);
+                }
                 if v.should_despawn && v.despawn_reason.is_none() {
                     v.despawn_reason = Some(DespawnReason::DeadEnd);
                 }
@@ -115,12 +127,13 @@ impl World {
     /// parallel against this tick's lane index, then made in vehicle order so
     /// that two vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
-        let (net, motion) = (&self.net, &self.config.vehicle);
+        let motion = &self.config.vehicle;
         let (index, vehicles) = (&self.index, &self.vehicles);
         let candidates: Vec<lane_change::Change> = vehicles
             .par_iter()
             .enumerate()
-            .filter_map(|(i, _)| lane_change::plan(net, index, vehicles, i, motion))
+            .with_min_len(MIN_VEHICLES_PER_TASK)
+            .filter_map(|(i, _)| lane_change::plan(index, vehicles, i, motion))
             .collect();
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
@@ -148,7 +161,12 @@ impl World {
     /// Parallel perception of every vehicle from the same snapshot.
     fn cognition(&self) -> Vec<Perception> {
         let net = &self.net;
-        let row: Vec<RowInfo> = self.vehicles.par_iter().map(RowInfo::of).collect();
+        let row: Vec<RowInfo> = self
+            .vehicles
+            .par_iter()
+            .with_min_len(MIN_VEHICLES_PER_TASK)
+            .map(RowInfo::of)
+            .collect();
         let junctions = JunctionBuckets::build(net, &row);
         let snap = Snapshot {
             net,
@@ -163,6 +181,7 @@ impl World {
         };
         (0..self.vehicles.len())
             .into_par_iter()
+            .with_min_len(MIN_VEHICLES_PER_TASK)
             .map(|i| perceive(&snap, i))
             .collect()
     }
