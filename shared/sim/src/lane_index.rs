@@ -44,6 +44,8 @@ pub struct LaneIndex {
     /// Scratch lists, kept for their allocations.
     occupant_items: Vec<(LaneId, Occupant)>,
     blocked_items: Vec<(LaneId, BlockedZone)>,
+    /// Vehicles waiting to change lanes (those with a ghost), in vehicle order.
+    lane_changers: Vec<u32>,
 }
 
 impl LaneIndex {
@@ -58,6 +60,7 @@ impl LaneIndex {
     pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
         let items = &mut self.occupant_items;
         items.clear();
+        self.lane_changers.clear();
         for (i, v) in vehicles.iter().enumerate() {
             items.push((
                 v.path[0],
@@ -70,6 +73,7 @@ impl LaneIndex {
                 },
             ));
             if let Some(target) = v.lane_change {
+                self.lane_changers.push(i as u32);
                 items.push((
                     target,
                     Occupant {
@@ -119,6 +123,11 @@ impl LaneIndex {
         self.occupants
             .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
         self.blocked.rebuild(net.lanes.len(), blocked);
+    }
+
+    /// Vehicles waiting to change lanes, in vehicle order.
+    pub fn lane_changers(&self) -> &[u32] {
+        &self.lane_changers
     }
 
     pub fn on_lane(&self, lane: LaneId) -> &[Occupant] {

@@ -123,17 +123,16 @@ impl World {
     }
 
     /// The lane changes routes need, where there is a gap (or where two
-    /// vehicles side by side each want the other's lane: they swap). Found in
-    /// parallel against this tick's lane index, then made in vehicle order so
-    /// that two vehicles never take the same gap. Returns whether any was made.
+    /// vehicles side by side each want the other's lane: they swap). Planned
+    /// against this tick's lane index, then made in vehicle order so that two
+    /// vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
         let motion = &self.config.vehicle;
         let (index, vehicles) = (&self.index, &self.vehicles);
-        let candidates: Vec<lane_change::Change> = vehicles
-            .par_iter()
-            .enumerate()
-            .with_min_len(MIN_VEHICLES_PER_TASK)
-            .filter_map(|(i, _)| lane_change::plan(index, vehicles, i, motion))
+        let candidates: Vec<lane_change::Change> = index
+            .lane_changers()
+            .iter()
+            .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, motion))
             .collect();
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
