@@ -62,6 +62,53 @@ fn import(file: &Path, out: &Path) -> std::process::Output {
         .unwrap()
 }
 
+/// A world on `net` with the default configuration but `seed` and `max_vehicles`.
+fn world_of(net: trafficmesh_sim::LaneNetwork, seed: u64, max_vehicles: usize) -> World {
+    World::new(
+        net,
+        WorldConfig {
+            seed,
+            max_vehicles,
+            ..WorldConfig::default()
+        },
+    )
+}
+
+/// No two vehicles of the world overlap now (`what` names the run).
+fn assert_no_overlaps(world: &World, what: &str) {
+    let pairs = sim_support::overlapping_pairs(world.vehicles(), 0.1);
+    let net = world.network();
+    let describe = |id: u64| {
+        let v = world.vehicle(id).unwrap();
+        let lanes: Vec<&str> = v.path.iter().map(|&l| net.lane(l).name.as_str()).collect();
+        format!(
+            "#{id} {:?}/{:?} on {lanes:?} s={:.1} v={:.1} ({:.1}, {:.1})",
+            v.yield_phase, v.speed_mode, v.s, v.speed, v.pose.x, v.pose.y
+        )
+    };
+    assert!(
+        pairs.is_empty(),
+        "{what}: overlapping vehicles at t={:.2}: {}",
+        world.time(),
+        pairs
+            .iter()
+            .map(|&(a, b)| format!("{} / {}", describe(a), describe(b)))
+            .collect::<Vec<_>>()
+            .join("; ")
+    );
+}
+
+/// Imports `file` to `out`, which must succeed; the printed summary.
+fn import_summary(file: &Path, out: &Path) -> String {
+    let imported = import(file, out);
+    assert!(
+        imported.status.success(),
+        "{}",
+        String::from_utf8_lossy(&imported.stderr)
+    );
+    String::from_utf8_lossy(&imported.stdout).into_owned()
+}
+
 #[test]
 fn cross_net_imports_as_sumolib_reads_it() {
     let Some(net) = shared_map("cross.net.xml") else {
@@ -72,13 +119,7 @@ fn cross_net_imports_as_sumolib_reads_it() {
     };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("cross.map.json");
-    let imported = import(&net, &out);
-    assert!(
-        imported.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imported.stderr)
-    );
-    let summary = String::from_utf8_lossy(&imported.stdout);
+    let summary = import_summary(&net, &out);
     assert!(summary.contains("4 light groups"), "{summary}");
     assert!(
         summary.contains("U-turn"),
@@ -101,13 +142,7 @@ fn grid_with_crossings_imports_as_sumolib_reads_it() {
     let net = grid_with_crossings();
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("grid3.map.json");
-    let imported = import(&net, &out);
-    assert!(
-        imported.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imported.stderr)
-    );
-    let summary = String::from_utf8_lossy(&imported.stdout);
+    let summary = import_summary(&net, &out);
     assert!(summary.contains("20 crosswalks"), "{summary}");
     assert!(
         summary.contains("sidewalks") && summary.contains("walking area"),
@@ -127,14 +162,7 @@ fn pedestrians_on_imported_crossings_stop_traffic_until_they_leave() {
         .map(|c| (c.name.clone(), c.polygon.clone()))
         .collect();
     assert_eq!(areas.len(), 20);
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            seed: 11,
-            max_vehicles: 60,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = world_of(net, 11, 60);
     let pedestrian = |area: &str| format!("NPCPedestrian_{area}");
     for (name, _) in &areas {
         world
@@ -196,14 +224,7 @@ fn vehicles_on_cross_net_obey_the_imported_signal_program() {
             (lane, net.lane(lane).light.unwrap() as usize)
         })
         .collect();
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            seed: 3,
-            max_vehicles: 80,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = world_of(net, 3, 80);
     let mut on_junction: std::collections::HashSet<u64> = Default::default();
     let mut entered = [0usize; 4];
     for _ in 0..(600.0 / 0.02) as usize {
@@ -284,13 +305,7 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     };
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("map.json");
-    let imported = import(&osm, &out);
-    assert!(
-        imported.status.success(),
-        "{}",
-        String::from_utf8_lossy(&imported.stderr)
-    );
-    let summary = String::from_utf8_lossy(&imported.stdout);
+    let summary = import_summary(&osm, &out);
     assert!(
         summary.contains("synthesised two-phase program"),
         "the synthesised timing is said: {summary}"
@@ -302,42 +317,13 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     }
     // Ten simulated minutes without two vehicles overlapping.
     let net = trafficmesh_maps::load_network(&osm).unwrap();
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            seed: 5,
-            max_vehicles: 40,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = world_of(net, 5, 40);
     let mut spawned = 0;
-    while world.time() < 900.0 {
+    while world.time() < 600.0 {
         world.step();
         spawned = spawned.max(world.vehicles().iter().map(|v| v.id + 1).max().unwrap_or(0));
         if world.ticks().is_multiple_of(5) {
-            let pairs = sim_support::overlapping_pairs(world.vehicles(), 0.1);
-            let describe = |id: u64| {
-                let v = world.vehicle(id).unwrap();
-                let lanes: Vec<&str> = v
-                    .path
-                    .iter()
-                    .map(|&l| world.network().lane(l).name.as_str())
-                    .collect();
-                format!(
-                    "#{id} on {lanes:?} s={:.1} v={:.1} ({:.1}, {:.1})",
-                    v.s, v.speed, v.pose.x, v.pose.y
-                )
-            };
-            assert!(
-                pairs.is_empty(),
-                "{file}: overlapping vehicles at t={:.2}: {}",
-                world.time(),
-                pairs
-                    .iter()
-                    .map(|&(a, b)| format!("{} / {}", describe(a), describe(b)))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            );
+            assert_no_overlaps(&world, file);
         }
     }
     assert!(
@@ -488,14 +474,7 @@ fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
         Some(&saturated_grid_demand()),
     )
     .unwrap();
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            seed: 2,
-            max_vehicles: 100_000,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = world_of(net, 2, 100_000);
     let mut finished = 0;
     while world.time() < 1200.0 {
         world.step();
@@ -506,36 +485,7 @@ fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
             })
             .count();
         if world.ticks().is_multiple_of(5) {
-            let pairs = sim_support::overlapping_pairs(world.vehicles(), 0.1);
-            let net = world.network();
-            let describe = |id: u64| {
-                let v = world.vehicle(id).unwrap();
-                format!(
-                    "#{id} {:?}/{:?} on {:?} prev {:?} s={:.1} v={:.1} forced={:?} dom={:?} df={:.1}",
-                    v.yield_phase,
-                    v.speed_mode,
-                    v.path
-                        .iter()
-                        .map(|&l| net.lane(l).name.as_str())
-                        .collect::<Vec<_>>(),
-                    v.prev_lane.map(|l| net.lane(l).name.as_str()),
-                    v.s,
-                    v.speed,
-                    v.forced_through,
-                    v.dominating,
-                    v.distance_to_front
-                )
-            };
-            assert!(
-                pairs.is_empty(),
-                "overlapping vehicles at t={:.2}: {}",
-                world.time(),
-                pairs
-                    .iter()
-                    .map(|&(a, b)| format!("{} / {}", describe(a), describe(b)))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            );
+            assert_no_overlaps(&world, "grid demand");
         }
     }
     assert_eq!(
