@@ -8,6 +8,7 @@
 use glam::DVec2;
 use rustc_hash::FxHashMap;
 
+use crate::geometry::segments_intersect;
 use crate::network::{Lane, LaneId};
 
 /// Half a truck's width plus half a car's width, rounded up.
@@ -50,6 +51,35 @@ fn close_intervals(a: &Lane, b: &Lane) -> Vec<(f64, f64)> {
         out.push((s0, len));
     }
     out
+}
+
+/// Do the centrelines come within CONFLICT_DISTANCE anywhere? (Cheap: segment
+/// pairs, before sampling.)
+fn lanes_come_close(a: &Lane, b: &Lane) -> bool {
+    let seg_dist = |p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2| -> f64 {
+        if segments_intersect(p0, p1, q0, q1) {
+            return 0.0;
+        }
+        let to = |x: DVec2, s0: DVec2, s1: DVec2| {
+            let d = s1 - s0;
+            let t = if d.length_squared() > 0.0 {
+                ((x - s0).dot(d) / d.length_squared()).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            x.distance(s0 + d * t)
+        };
+        to(p0, q0, q1)
+            .min(to(p1, q0, q1))
+            .min(to(q0, p0, p1))
+            .min(to(q1, p0, p1))
+    };
+    let pa: Vec<DVec2> = a.line.points().collect();
+    let pb: Vec<DVec2> = b.line.points().collect();
+    pa.windows(2).any(|x| {
+        pb.windows(2)
+            .any(|y| seg_dist(x[0], x[1], y[0], y[1]) < CONFLICT_DISTANCE)
+    })
 }
 
 fn heading_at(lane: &Lane, s: f64) -> DVec2 {
@@ -104,6 +134,9 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
     for (a, b) in pairs {
         let (la, lb) = (&lanes[a], &lanes[b]);
         if la.next.contains(&(b as LaneId)) || lb.next.contains(&(a as LaneId)) {
+            continue;
+        }
+        if !lanes_come_close(la, lb) {
             continue;
         }
         let on_a = close_intervals(la, lb);
