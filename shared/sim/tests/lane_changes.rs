@@ -1,0 +1,114 @@
+//! Lane changes that routes need: at a gap, never into another body, and two
+//! vehicles that each want the other's lane swap.
+
+mod support;
+
+use serde_json::json;
+use support::*;
+use trafficmesh_sim::{World, WorldConfig};
+
+/// Two eastbound lanes side by side, 3.2 m apart, each going on through its own
+/// junction lane to its own exit.
+fn two_lane_road() -> trafficmesh_model::MapFile {
+    let mut j0 = lane("j0", &[[200.0, 0.0], [220.0, 0.0]], &["x0"]);
+    let mut j1 = lane("j1", &[[200.0, 3.2], [220.0, 3.2]], &["x1"]);
+    j0["intersection"] = json!(true);
+    j1["intersection"] = json!(true);
+    map(
+        vec![
+            lane("a0", &[[0.0, 0.0], [200.0, 0.0]], &["j0"]),
+            lane("a1", &[[0.0, 3.2], [200.0, 3.2]], &["j1"]),
+            j0,
+            j1,
+            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &[]),
+            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &[]),
+        ],
+        json!({}),
+    )
+}
+
+fn lane_of<'a>(world: &'a World, id: u64) -> &'a str {
+    let v = vehicle(world, id);
+    &world.network().lane(v.path[0]).name
+}
+
+/// Runs until every vehicle has left the map; no two may overlap on the way.
+/// Returns the lanes each vehicle was seen on, in order.
+fn run_out(world: &mut World, ids: &[u64]) -> Vec<Vec<String>> {
+    let mut seen: Vec<Vec<String>> = ids
+        .iter()
+        .map(|&id| vec![lane_of(world, id).to_string()])
+        .collect();
+    let done = run_until(world, 120.0, |w| {
+        assert!(
+            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            "overlap at t={:.2}",
+            w.time()
+        );
+        for (k, &id) in ids.iter().enumerate() {
+            if w.vehicle(id).is_some() {
+                let lane = lane_of(w, id).to_string();
+                if seen[k].last() != Some(&lane) {
+                    seen[k].push(lane);
+                }
+            }
+        }
+        w.vehicles().is_empty()
+    });
+    assert!(done, "everyone leaves the road");
+    seen
+}
+
+#[test]
+fn a_route_from_the_lane_beside_changes_lanes_behind_the_vehicle_there() {
+    let mut w = world(&two_lane_road(), WorldConfig::default());
+    // Beside each other at the same speed: the routed one must let the other pass.
+    let routed = w
+        .place_vehicle_on_route("Taxi", &["a0", "j1", "x1"], 40.0, 10.0)
+        .unwrap();
+    let beside = w.place_vehicle("Taxi", "a1", 40.0, 10.0).unwrap();
+    let seen = run_out(&mut w, &[routed, beside]);
+    assert_eq!(
+        seen[0],
+        ["a0", "a1", "j1", "x1"],
+        "the routed vehicle changes lanes"
+    );
+    assert_eq!(seen[1], ["a1", "j1", "x1"]);
+}
+
+#[test]
+fn a_vehicle_that_finds_no_gap_waits_before_its_lane_ends() {
+    let mut w = world(&two_lane_road(), WorldConfig::default());
+    let routed = w
+        .place_vehicle_on_route("Taxi", &["a0", "j1", "x1"], 150.0, 0.0)
+        .unwrap();
+    // A stream on the target lane, close together, going past.
+    let stream: Vec<u64> = (0..4)
+        .map(|k| {
+            w.place_vehicle("Taxi", "a1", 150.0 - 12.0 * k as f64, 12.0)
+                .unwrap()
+        })
+        .collect();
+    let mut ids = vec![routed];
+    ids.extend(&stream);
+    let seen = run_out(&mut w, &ids);
+    assert_eq!(seen[0], ["a0", "a1", "j1", "x1"]);
+    for lanes in &seen[1..] {
+        assert_eq!(lanes, &["a1", "j1", "x1"], "the stream keeps its lane");
+    }
+}
+
+#[test]
+fn two_vehicles_that_each_want_the_others_lane_swap() {
+    let mut w = world(&two_lane_road(), WorldConfig::default());
+    // Stopped side by side in a queue-like standstill: no gap will open.
+    let left = w
+        .place_vehicle_on_route("Taxi", &["a0", "j1", "x1"], 180.0, 0.0)
+        .unwrap();
+    let right = w
+        .place_vehicle_on_route("Taxi", &["a1", "j0", "x0"], 180.0, 0.0)
+        .unwrap();
+    let seen = run_out(&mut w, &[left, right]);
+    assert_eq!(seen[0], ["a0", "a1", "j1", "x1"]);
+    assert_eq!(seen[1], ["a1", "a0", "j0", "x0"]);
+}
