@@ -27,7 +27,7 @@ fn two_lane_road() -> trafficmesh_model::MapFile {
     )
 }
 
-fn lane_of<'a>(world: &'a World, id: u64) -> &'a str {
+fn lane_of(world: &World, id: u64) -> &str {
     let v = vehicle(world, id);
     &world.network().lane(v.path[0]).name
 }
