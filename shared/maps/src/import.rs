@@ -2,7 +2,7 @@
 //! and element), and the XML attribute helpers the importers share.
 
 use roxmltree::{Document, Node};
-use trafficmesh_model::map::{LaneDef, MapFile, SimulatorDef};
+use trafficmesh_model::map::{CrosswalkDef, LaneDef, LightGroupDef, MapFile, SimulatorDef};
 
 /// A map read from a foreign file, and what could not be carried over.
 #[derive(Debug)]
@@ -45,6 +45,37 @@ impl ImportError {
             line: None,
             message,
         }
+    }
+}
+
+/// The network an importer read, in the native format. `is_entry` tells the
+/// lanes nothing leads into, where the map's random simulator spawns.
+pub fn assemble(
+    name: String,
+    lanes: Vec<LaneDef>,
+    light_groups: Vec<LightGroupDef>,
+    crosswalks: Vec<CrosswalkDef>,
+    is_entry: impl Fn(usize) -> bool,
+    warnings: Vec<String>,
+) -> Imported {
+    let entries: Vec<String> = lanes
+        .iter()
+        .enumerate()
+        .filter(|(i, l)| is_entry(*i) && !l.intersection)
+        .map(|(_, l)| l.name.clone())
+        .collect();
+    let traffic_simulators = random_simulator(&lanes, entries).into_iter().collect();
+    Imported {
+        map: MapFile {
+            format: trafficmesh_model::map::MAP_FORMAT.to_string(),
+            name,
+            lanes,
+            light_groups,
+            crosswalks,
+            zebra_configs: Vec::new(),
+            traffic_simulators,
+        },
+        warnings,
     }
 }
 

@@ -14,10 +14,10 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point,
 };
 
-use crate::import::{ImportError, Imported, attr, parse_xml, random_simulator};
+use crate::import::{ImportError, Imported, assemble, attr, parse_xml};
 
 const EARTH_RADIUS: f64 = 6_371_000.0;
 /// Lanelet2's default for urban roads when a lanelet has no speed_limit, km/h.
@@ -357,25 +357,14 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         .collect();
 
     // Spawn lanes: the lanelets nothing leads into.
-    let entries: Vec<String> = lanes
-        .iter()
-        .zip(&predecessors)
-        .filter(|(l, p)| p.is_empty() && !l.intersection)
-        .map(|(l, _)| l.name.clone())
-        .collect();
-    let traffic_simulators = random_simulator(&lanes, entries).into_iter().collect();
-    Ok(Imported {
-        map: MapFile {
-            format: trafficmesh_model::map::MAP_FORMAT.to_string(),
-            name: format!("{name} (Lanelet2)"),
-            lanes,
-            light_groups,
-            crosswalks,
-            zebra_configs: Vec::new(),
-            traffic_simulators,
-        },
+    Ok(assemble(
+        format!("{name} (Lanelet2)"),
+        lanes,
+        light_groups,
+        crosswalks,
+        |i| predecessors[i].is_empty(),
         warnings,
-    })
+    ))
 }
 
 fn node_positions(

@@ -12,10 +12,10 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MapFile, Point,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point,
 };
 
-use crate::import::{ImportError, Imported, attr, attr_f64, parse_xml, random_simulator};
+use crate::import::{ImportError, Imported, assemble, attr, attr_f64, parse_xml};
 
 /// Lanes narrower than this are kept at it (SUMO's default lane width is 3.2 m).
 const DEFAULT_WIDTH: f64 = 3.2;
@@ -156,25 +156,14 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
 
     // Vehicles enter where no other road leads in (SUMO demand comes from route
     // files; without one, the map's random simulator spawns at these lanes).
-    let entries: Vec<String> = lanes
-        .iter()
-        .zip(&entered)
-        .filter(|(l, e)| !**e && !l.intersection)
-        .map(|(l, _)| l.name.clone())
-        .collect();
-    let traffic_simulators = random_simulator(&lanes, entries).into_iter().collect();
-    Ok(Imported {
-        map: MapFile {
-            format: trafficmesh_model::map::MAP_FORMAT.to_string(),
-            name: format!("{name} (SUMO network, netOffset {offset})"),
-            lanes,
-            light_groups,
-            crosswalks,
-            zebra_configs: Vec::new(),
-            traffic_simulators,
-        },
+    Ok(assemble(
+        format!("{name} (SUMO network, netOffset {offset})"),
+        lanes,
+        light_groups,
+        crosswalks,
+        |i| !entered[i],
         warnings,
-    })
+    ))
 }
 
 /// Each crossing's lane (its centreline across the road and its width) as a
