@@ -306,6 +306,13 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("map.json");
     let summary = import_summary(&osm, &out);
+    // Deterministic: a second import writes the same bytes.
+    let again = dir.path().join("again.json");
+    import_summary(&osm, &again);
+    assert!(
+        std::fs::read(&out).unwrap() == std::fs::read(&again).unwrap(),
+        "{file}: two imports differ"
+    );
     assert!(
         summary.contains("synthesised two-phase program"),
         "the synthesised timing is said: {summary}"

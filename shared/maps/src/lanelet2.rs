@@ -373,7 +373,9 @@ fn node_positions(
     warnings: &mut Vec<String>,
 ) -> Result<HashMap<i64, Xy>, ImportError> {
     let mut local: HashMap<i64, Xy> = HashMap::new();
-    let mut geo: HashMap<i64, (f64, f64, f64)> = HashMap::new();
+    // In document order: the centre is a floating-point sum, which must not
+    // depend on a hash map's order (the import would differ run to run).
+    let mut geo: Vec<(i64, (f64, f64, f64))> = Vec::new();
     let mut all_local = true;
     for n in root.children().filter(|n| n.has_tag_name("node")) {
         let id = id_of(doc, n, "id")?;
@@ -398,15 +400,15 @@ fn node_positions(
         }
         let lat = num(doc, n, attr(doc, n, "lat")?, "attribute 'lat'")?;
         let lon = num(doc, n, attr(doc, n, "lon")?, "attribute 'lon'")?;
-        geo.insert(id, (lat, lon, ele));
+        geo.push((id, (lat, lon, ele)));
     }
     if all_local && !local.is_empty() {
         return Ok(local);
     }
     // A plane tangent at the centre: metres east and north of it.
     let count = geo.len().max(1) as f64;
-    let lat0 = geo.values().map(|g| g.0).sum::<f64>() / count;
-    let lon0 = geo.values().map(|g| g.1).sum::<f64>() / count;
+    let lat0 = geo.iter().map(|(_, g)| g.0).sum::<f64>() / count;
+    let lon0 = geo.iter().map(|(_, g)| g.1).sum::<f64>() / count;
     warnings.push(format!(
         "nodes have no local_x/local_y: lat/lon projected onto a plane tangent at {lat0:.6}, {lon0:.6}"
     ));
