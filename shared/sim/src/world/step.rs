@@ -134,6 +134,9 @@ impl World {
             .iter()
             .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, motion))
             .collect();
+        if candidates.is_empty() {
+            return false;
+        }
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
         for c in candidates {
