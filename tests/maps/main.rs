@@ -98,6 +98,14 @@ fn assert_no_overlaps(world: &World, what: &str) {
     );
 }
 
+/// Imports `file` to `out`, which must fail with exit code 2; the message.
+fn rejected(file: &Path, out: &Path) -> String {
+    let bad = import(file, out);
+    let err = String::from_utf8_lossy(&bad.stderr).into_owned();
+    assert_eq!(bad.status.code(), Some(2), "{err}");
+    err
+}
+
 /// Imports `file` to `out`, which must succeed; the printed summary.
 fn import_summary(file: &Path, out: &Path) -> String {
     let imported = import(file, out);
@@ -306,9 +314,7 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.map.json");
 
-    let bad = import(&repo().join("tests/maps/bad_lane.net.xml"), &out);
-    let err = String::from_utf8_lossy(&bad.stderr);
-    assert_eq!(bad.status.code(), Some(2), "{err}");
+    let err = rejected(&repo().join("tests/maps/bad_lane.net.xml"), &out);
     assert!(
         err.contains("line 9") && err.contains("<lane id='b_0'>") && err.contains("'shape'"),
         "{err}"
@@ -320,9 +326,7 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
         "<net><edge id='a'>\n<lane id='a_0' shape='0,0 1,1'></edge></net>",
     )
     .unwrap();
-    let bad = import(&garbage, &out);
-    let err = String::from_utf8_lossy(&bad.stderr);
-    assert_eq!(bad.status.code(), Some(2), "{err}");
+    let err = rejected(&garbage, &out);
     assert!(
         err.contains("line 2") && err.contains("not well-formed XML"),
         "{err}"
@@ -332,9 +336,7 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
         let text = std::fs::read_to_string(net).unwrap();
         let truncated = dir.path().join("truncated.net.xml");
         std::fs::write(&truncated, &text[..text.len() / 2]).unwrap();
-        let bad = import(&truncated, &out);
-        let err = String::from_utf8_lossy(&bad.stderr);
-        assert_eq!(bad.status.code(), Some(2), "{err}");
+        let err = rejected(&truncated, &out);
         assert!(
             err.contains("truncated.net.xml") && err.contains("line "),
             "{err}"
@@ -401,9 +403,7 @@ fn lanelet2_mapping_example_imports_every_lanelet_light_and_crosswalk() {
 fn broken_lanelet2_files_are_rejected_naming_line_and_element() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("x.map.json");
-    let bad = import(&repo().join("tests/maps/missing_way.osm"), &out);
-    let err = String::from_utf8_lossy(&bad.stderr);
-    assert_eq!(bad.status.code(), Some(2), "{err}");
+    let err = rejected(&repo().join("tests/maps/missing_way.osm"), &out);
     assert!(
         err.contains("line 12") && err.contains("<relation id='10'>") && err.contains("way 99"),
         "{err}"
@@ -412,9 +412,7 @@ fn broken_lanelet2_files_are_rejected_naming_line_and_element() {
         let text = std::fs::read_to_string(osm).unwrap();
         let truncated = dir.path().join("truncated.osm");
         std::fs::write(&truncated, &text[..text.len() / 3]).unwrap();
-        let bad = import(&truncated, &out);
-        let err = String::from_utf8_lossy(&bad.stderr);
-        assert_eq!(bad.status.code(), Some(2), "{err}");
+        let err = rejected(&truncated, &out);
         assert!(
             err.contains("truncated.osm") && err.contains("not well-formed XML"),
             "{err}"

@@ -1,7 +1,9 @@
 //! Crosswalk stop points for imported maps: where a lane's centreline enters a
 //! crosswalk's polygon, set back a metre, with the lane's heading there.
 
+use glam::DVec2;
 use trafficmesh_model::map::{Point, StopPointDef};
+use trafficmesh_sim::geometry::point_in_polygon;
 
 /// Vehicles stop this far before a crosswalk's edge, metres.
 const STOP_BACK: f64 = 1.0;
@@ -12,19 +14,10 @@ const SAME_STOP_COS: f64 = 0.985;
 
 type Xyz = [f64; 3];
 
-/// Even-odd rule on the horizontal plane.
-pub fn inside(polygon: &[Xyz], p: Xyz) -> bool {
-    let mut c = false;
-    let n = polygon.len();
-    for i in 0..n {
-        let (a, b) = (polygon[i], polygon[(i + n - 1) % n]);
-        if (a[1] > p[1]) != (b[1] > p[1])
-            && p[0] < (b[0] - a[0]) * (p[1] - a[1]) / (b[1] - a[1]) + a[0]
-        {
-            c = !c;
-        }
-    }
-    c
+/// Even-odd rule on the horizontal plane (the simulation's own test).
+fn inside(polygon: &[Xyz], p: Xyz) -> bool {
+    let flat: Vec<DVec2> = polygon.iter().map(|q| DVec2::new(q[0], q[1])).collect();
+    point_in_polygon(DVec2::new(p[0], p[1]), &flat)
 }
 
 /// One stop point per centreline that enters the polygon from outside (its
