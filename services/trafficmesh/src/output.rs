@@ -48,18 +48,30 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
     Ok(())
 }
 
-/// Human-readable `key: value` lines of any flat summary.
+/// Human-readable `key: value` lines of a summary; nested objects print one
+/// `key.field` line per field.
 pub fn print_summary<T: Serialize>(summary: &T) -> Result<()> {
     if let serde_json::Value::Object(fields) = serde_json::to_value(summary)? {
         for (k, v) in fields {
             match v {
-                serde_json::Value::Number(n) if n.is_f64() => {
-                    println!("{k:>22}: {:.3}", n.as_f64().unwrap_or_default())
+                serde_json::Value::Object(inner) => {
+                    for (field, value) in inner {
+                        print_value(&format!("{k}.{field}"), value);
+                    }
                 }
-                serde_json::Value::String(s) => println!("{k:>22}: {s}"),
-                other => println!("{k:>22}: {other}"),
+                other => print_value(&k, other),
             }
         }
     }
     Ok(())
+}
+
+fn print_value(key: &str, value: serde_json::Value) {
+    match value {
+        serde_json::Value::Number(n) if n.is_f64() => {
+            println!("{key:>22}: {:.3}", n.as_f64().unwrap_or_default())
+        }
+        serde_json::Value::String(s) => println!("{key:>22}: {s}"),
+        other => println!("{key:>22}: {other}"),
+    }
 }

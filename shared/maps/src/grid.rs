@@ -288,6 +288,7 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
         .collect();
     let attempts = (spawn_lanes.len() / 40).max(1) as u32;
     MapFile {
+        conflicts_outside_junctions: false,
         format: MAP_FORMAT.to_string(),
         name: format!("grid {n}x{n}, {} m blocks", o.block),
         lanes,

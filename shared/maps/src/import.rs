@@ -49,13 +49,15 @@ impl ImportError {
 }
 
 /// The network an importer read, in the native format. `is_entry` tells the
-/// lanes nothing leads into, where the map's random simulator spawns.
+/// lanes nothing leads into, where the map's random simulator spawns;
+/// `conflicts_outside_junctions` that the format does not mark every junction.
 pub fn assemble(
     name: String,
     lanes: Vec<LaneDef>,
     light_groups: Vec<LightGroupDef>,
     crosswalks: Vec<CrosswalkDef>,
     is_entry: impl Fn(usize) -> bool,
+    conflicts_outside_junctions: bool,
     warnings: Vec<String>,
 ) -> Imported {
     let entries: Vec<String> = lanes
@@ -74,6 +76,7 @@ pub fn assemble(
             crosswalks,
             zebra_configs: Vec::new(),
             traffic_simulators,
+            conflicts_outside_junctions,
         },
         warnings,
     }

@@ -363,6 +363,9 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         light_groups,
         crosswalks,
         |i| predecessors[i].is_empty(),
+        // Junctions are guessed (turn tags, splits, joins): lanelets also
+        // cross and run close outside them.
+        true,
         warnings,
     ))
 }

@@ -162,6 +162,8 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         light_groups,
         crosswalks,
         |i| !entered[i],
+        // Internal lanes make up every junction.
+        false,
         warnings,
     ))
 }

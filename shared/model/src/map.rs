@@ -293,6 +293,12 @@ pub struct MapFile {
     pub zebra_configs: Vec<ZebraConfigDef>,
     #[serde(default)]
     pub traffic_simulators: Vec<SimulatorDef>,
+    /// The map does not mark every place where lanes cross, split or join as
+    /// a junction (Lanelet2 imports): vehicles there are kept apart by conflict
+    /// zones between any lanes whose vehicles could touch, the one nearer the
+    /// zone going first.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub conflicts_outside_junctions: bool,
 }
 
 /// One thing wrong with a map: the element it is in, the field, and what is wrong.

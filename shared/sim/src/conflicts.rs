@@ -1,9 +1,13 @@
-//! Conflict zones between intersection lanes and the junctions they form.
+//! Conflict zones between lanes and the junctions they form.
 //!
 //! Two lanes conflict where their centrelines come within [`CONFLICT_DISTANCE`]:
 //! two vehicles there could touch. Crossings, merges and diverges are all found
 //! this way, once, at load time; at run time a vehicle only looks at the lanes
-//! its own path conflicts with.
+//! its own path conflicts with. Between two intersection lanes the junction's
+//! right of way orders the vehicles. Maps that do not mark every junction
+//! (`conflicts_outside_junctions`: Lanelet2 imports) also get "road" conflicts
+//! between any lanes whose vehicles could touch: there the vehicle nearer the
+//! zone goes first.
 
 use glam::DVec2;
 use rustc_hash::FxHashMap;
@@ -13,6 +17,10 @@ use crate::network::{Lane, LaneId};
 
 /// Half a truck's width plus half a car's width, rounded up.
 pub const CONFLICT_DISTANCE: f64 = 2.6;
+/// Road conflicts reach further, to two trucks side by side; whether two
+/// bodies fit past each other there is decided by their widths at run time
+/// (see [`Conflict::room`]).
+pub const ROAD_CONFLICT_DISTANCE: f64 = 3.1;
 const SAMPLE_STEP: f64 = 0.5;
 const GRID_CELL: f64 = 40.0;
 
@@ -27,35 +35,99 @@ pub struct Conflict {
     pub b1: f64,
     /// Merge or diverge (headings within 45°) rather than a crossing.
     pub parallel: bool,
+    /// Not between two intersection lanes: no right of way covers it.
+    pub road: bool,
+    /// Road conflicts: the least distance between the centrelines in the zone,
+    /// less what long bodies swing out on curves. Two vehicles whose half
+    /// widths add up to less pass each other. Zero for junction conflicts.
+    pub room: f64,
 }
 
-/// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b.
-fn close_intervals(a: &Lane, b: &Lane) -> Vec<(f64, f64)> {
+/// Half the longest vehicle's length (the truck's): how far a body reaches
+/// along its lane from the point it stands on.
+const HALF_BODY: f64 = 4.6;
+/// The most a road conflict is widened for a body swinging out on a curve.
+const MAX_SWEEP: f64 = 2.0;
+
+/// How far a long body on lane `id` at `s` can swing out of the lane's
+/// corridor: a rigid body does not bend with the lane, so on a curve (or where
+/// the lane joins a sharply turning one) its ends leave the centreline by
+/// about the chord's offset over the body's length.
+fn sweep(lanes: &[Lane], id: usize, s: f64) -> f64 {
+    let lane = &lanes[id];
+    let len = lane.length();
+    let headings = |lane: &Lane, s: f64| heading_at(lane, s.clamp(0.0, lane.length()));
+    let here = headings(lane, s);
+    let mut turn = here
+        .dot(headings(lane, s - HALF_BODY))
+        .min(here.dot(headings(lane, s + HALF_BODY)));
+    if s + HALF_BODY > len {
+        for &n in &lane.next {
+            let n = &lanes[n as usize];
+            turn = turn.min(here.dot(headings(n, s + HALF_BODY - len)));
+        }
+    }
+    if s < HALF_BODY {
+        for &p in &lane.prev {
+            let p = &lanes[p as usize];
+            turn = turn.min(here.dot(headings(p, p.length() + s - HALF_BODY)));
+        }
+    }
+    let angle = turn.clamp(-1.0, 1.0).acos();
+    (HALF_BODY * (angle * 0.5).sin()).min(MAX_SWEEP)
+}
+
+/// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b, with
+/// the room between them; for road conflicts (`road`: no right of way keeps
+/// the two vehicles apart, so their bodies must) within ROAD_CONFLICT_DISTANCE
+/// widened by both lanes' sweep. Lanes that follow each other (`link`) are
+/// close only away from their joint.
+fn close_intervals(
+    lanes: &[Lane],
+    (ia, ib): (usize, usize),
+    road: bool,
+    link: Option<Link>,
+) -> Vec<(f64, f64, f64)> {
+    let (a, b) = (&lanes[ia], &lanes[ib]);
     let len = a.length();
     let n = (len / SAMPLE_STEP).ceil().max(1.0) as usize;
     let mut out = Vec::new();
-    let mut start: Option<f64> = None;
+    let mut open: Option<(f64, f64)> = None;
     for k in 0..=n {
         let s = (k as f64 * SAMPLE_STEP).min(len);
-        let close = b.line.distance_to(a.line.point_at(s).0) < CONFLICT_DISTANCE;
-        match (close, start) {
-            (true, None) => start = Some(s),
-            (false, Some(s0)) => {
-                out.push((s0, s));
-                start = None;
+        let p = a.line.point_at(s).0;
+        let t = b.line.project(p);
+        let (reach, room) = if road {
+            let sweeps = sweep(lanes, ia, s) + sweep(lanes, ib, t);
+            let distance = b.line.distance_to(p);
+            (
+                ROAD_CONFLICT_DISTANCE + sweeps,
+                (distance - sweeps).max(0.0),
+            )
+        } else {
+            (CONFLICT_DISTANCE, 0.0)
+        };
+        let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > JOINT_DISTANCE);
+        let close = apart && b.line.distance_to(p) < reach;
+        open = match (close, open) {
+            (true, None) => Some((s, room)),
+            (true, Some((s0, least))) => Some((s0, least.min(room))),
+            (false, Some((s0, least))) => {
+                out.push((s0, s, least));
+                None
             }
-            _ => {}
-        }
+            (false, None) => None,
+        };
     }
-    if let Some(s0) = start {
-        out.push((s0, len));
+    if let Some((s0, least)) = open {
+        out.push((s0, len, least));
     }
     out
 }
 
-/// Do the centrelines come within CONFLICT_DISTANCE anywhere? (Cheap: segment
-/// pairs, before sampling.)
-fn lanes_come_close(a: &Lane, b: &Lane) -> bool {
+/// Do the centrelines come within `reach` anywhere? (Cheap: segment pairs,
+/// before sampling.)
+fn lanes_come_close(a: &Lane, b: &Lane, reach: f64) -> bool {
     let seg_dist = |p0: DVec2, p1: DVec2, q0: DVec2, q1: DVec2| -> f64 {
         if segments_intersect(p0, p1, q0, q1) {
             return 0.0;
@@ -78,7 +150,7 @@ fn lanes_come_close(a: &Lane, b: &Lane) -> bool {
     let pb: Vec<DVec2> = b.line.points().collect();
     pa.windows(2).any(|x| {
         pb.windows(2)
-            .any(|y| seg_dist(x[0], x[1], y[0], y[1]) < CONFLICT_DISTANCE)
+            .any(|y| seg_dist(x[0], x[1], y[0], y[1]) < reach)
     })
 }
 
@@ -93,22 +165,94 @@ fn bounding_cells(lane: &Lane) -> impl Iterator<Item = (i64, i64)> {
         hi = hi.max(p);
     }
     let c = |v: f64| (v / GRID_CELL).floor() as i64;
+    let margin = ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP;
     let (x0, x1, y0, y1) = (
-        c(lo.x - CONFLICT_DISTANCE),
-        c(hi.x + CONFLICT_DISTANCE),
-        c(lo.y - CONFLICT_DISTANCE),
-        c(hi.y + CONFLICT_DISTANCE),
+        c(lo.x - margin),
+        c(hi.x + margin),
+        c(lo.y - margin),
+        c(hi.y + margin),
     );
     (x0..=x1).flat_map(move |x| (y0..=y1).map(move |y| (x, y)))
 }
 
-/// Fills every intersection lane's conflicts and junction id; returns the junction count.
-pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
+/// Lanes one after the other (within this many metres of lanes between them)
+/// carry one stream of vehicles: near their joint they do not conflict.
+const LINKED_DISTANCE: f64 = 10.0;
+/// Points of linked lanes less than this far apart along the lanes are the
+/// joint itself; farther apart (a hairpin folding back on itself), bodies on
+/// the two can still touch.
+const JOINT_DISTANCE: f64 = 20.0;
+
+/// How two lanes of a conflict pair follow each other, if they do.
+#[derive(Clone, Copy)]
+enum Link {
+    /// Vehicles go from the first lane to the second, with `gap` metres of lanes between.
+    Forward {
+        gap: f64,
+    },
+    Backward {
+        gap: f64,
+    },
+}
+
+impl Link {
+    /// Along-lane metres between arc length `s` of the first lane and `t` of the second.
+    fn along(self, first_len: f64, second_len: f64, s: f64, t: f64) -> f64 {
+        match self {
+            Link::Forward { gap } => first_len - s + gap + t,
+            Link::Backward { gap } => second_len - t + gap + s,
+        }
+    }
+
+    fn reversed(self) -> Link {
+        match self {
+            Link::Forward { gap } => Link::Backward { gap },
+            Link::Backward { gap } => Link::Forward { gap },
+        }
+    }
+}
+
+/// The fewest metres of lanes between `from` and `to` through successors, if
+/// `to` is reached with less than LINKED_DISTANCE in between.
+fn link_gap(lanes: &[Lane], from: usize, to: usize) -> Option<f64> {
+    let mut best: Option<f64> = None;
+    let mut frontier = vec![(from, 0.0)];
+    while let Some((lane, gap)) = frontier.pop() {
+        for &n in &lanes[lane].next {
+            let n = n as usize;
+            if n == to {
+                best = Some(best.map_or(gap, |b: f64| b.min(gap)));
+                continue;
+            }
+            let through = gap + lanes[n].length();
+            if through < LINKED_DISTANCE {
+                frontier.push((n, through));
+            }
+        }
+    }
+    best
+}
+
+fn link(lanes: &[Lane], a: usize, b: usize) -> Option<Link> {
+    link_gap(lanes, a, b)
+        .map(|gap| Link::Forward { gap })
+        .or_else(|| link_gap(lanes, b, a).map(|gap| Link::Backward { gap }))
+}
+
+/// Fills every intersection lane's conflicts and junction id, and with
+/// `outside_junctions` the road conflicts of every lane; returns the junction
+/// count.
+pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool) -> u32 {
     let inter: Vec<usize> = (0..lanes.len())
         .filter(|&i| lanes[i].intersection)
         .collect();
     let mut grid: FxHashMap<(i64, i64), Vec<usize>> = FxHashMap::default();
-    for &i in &inter {
+    let candidates: Vec<usize> = if outside_junctions {
+        (0..lanes.len()).collect()
+    } else {
+        inter.clone()
+    };
+    for &i in &candidates {
         for cell in bounding_cells(&lanes[i]) {
             grid.entry(cell).or_default().push(i);
         }
@@ -133,21 +277,25 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
     }
     for (a, b) in pairs {
         let (la, lb) = (&lanes[a], &lanes[b]);
-        if la.next.contains(&(b as LaneId)) || lb.next.contains(&(a as LaneId)) {
+        let road = !(la.intersection && lb.intersection);
+        let reach = if road {
+            ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP
+        } else {
+            CONFLICT_DISTANCE
+        };
+        if !lanes_come_close(la, lb, reach) {
             continue;
         }
-        if !lanes_come_close(la, lb) {
-            continue;
-        }
-        let on_a = close_intervals(la, lb);
+        let link = link(lanes, a, b);
+        let on_a = close_intervals(lanes, (a, b), road, link);
         if on_a.is_empty() {
             continue;
         }
-        let on_b = close_intervals(lb, la);
+        let on_b = close_intervals(lanes, (b, a), road, link.map(Link::reversed));
         let mut found = Vec::new();
-        for &(a0, a1) in &on_a {
+        for &(a0, a1, room_a) in &on_a {
             let mid_a = la.line.point_at((a0 + a1) * 0.5).0;
-            let Some(&(b0, b1)) = on_b.iter().min_by(|x, y| {
+            let Some(&(b0, b1, room_b)) = on_b.iter().min_by(|x, y| {
                 let dx = lb.line.point_at((x.0 + x.1) * 0.5).0.distance(mid_a);
                 let dy = lb.line.point_at((y.0 + y.1) * 0.5).0.distance(mid_a);
                 dx.total_cmp(&dy)
@@ -155,9 +303,10 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
                 continue;
             };
             let cos = heading_at(la, (a0 + a1) * 0.5).dot(heading_at(lb, (b0 + b1) * 0.5));
-            found.push((a0, a1, b0, b1, cos > std::f64::consts::FRAC_1_SQRT_2));
+            let parallel = cos > std::f64::consts::FRAC_1_SQRT_2;
+            found.push((a0, a1, b0, b1, parallel, room_a.min(room_b)));
         }
-        for (a0, a1, b0, b1, parallel) in found {
+        for (a0, a1, b0, b1, parallel, room) in found {
             lanes[a].conflicts.push(Conflict {
                 other: b as LaneId,
                 a0,
@@ -165,6 +314,8 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
                 b0,
                 b1,
                 parallel,
+                road,
+                room,
             });
             lanes[b].conflicts.push(Conflict {
                 other: a as LaneId,
@@ -173,10 +324,14 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
                 b0: a0,
                 b1: a1,
                 parallel,
+                road,
+                room,
             });
         }
-        let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
-        parent[ra.max(rb)] = ra.min(rb);
+        if !road {
+            let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+            parent[ra.max(rb)] = ra.min(rb);
+        }
     }
     // Lanes sharing an approach or an exit belong to the same junction too.
     for &i in &inter {
@@ -197,12 +352,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane]) -> u32 {
         lanes[i].junction = Some(j);
     }
     for lane in lanes.iter_mut() {
-        lane.conflict_span = lane
-            .conflicts
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), c| {
-                (lo.min(c.a0), hi.max(c.a1))
-            });
+        lane.road_conflicts = lane.conflicts.iter().any(|c| c.road);
         lane.conflicts
             .sort_by(|x, y| x.a0.total_cmp(&y.a0).then(x.other.cmp(&y.other)));
     }

@@ -33,6 +33,18 @@ pub struct BlockedZone {
     /// The lane the body is on.
     pub source: LaneId,
     pub vehicle: u32,
+    /// A road conflict (see [`crate::conflicts::Conflict::road`]), with its
+    /// room and the body's width: a vehicle narrow enough passes the body.
+    pub road: bool,
+    pub room: f64,
+    pub width: f64,
+}
+
+impl BlockedZone {
+    /// Does a vehicle `width` wide pass the body beside it?
+    pub fn passable(&self, width: f64) -> bool {
+        self.road && (width + self.width) * 0.5 < self.room
+    }
 }
 
 /// Vehicles of each lane sorted by rear position, and the conflict zones each
@@ -88,17 +100,7 @@ impl LaneIndex {
             if v.rear_s() < 0.0
                 && let Some(p) = v.prev_lane
             {
-                let len = net.lane(p).length();
-                items.push((
-                    p,
-                    Occupant {
-                        rear: len + v.rear_s(),
-                        front: len + v.s,
-                        speed: v.speed,
-                        vehicle: i as u32,
-                        ghost: false,
-                    },
-                ));
+                push_tail(net, items, p, v.rear_s(), v.s, v.speed, i as u32);
             }
         }
         let blocked = &mut self.blocked_items;
@@ -114,6 +116,9 @@ impl LaneIndex {
                             parallel_rear: c.parallel.then(|| c.b0 + (occ.rear - c.a0).max(0.0)),
                             source: lane,
                             vehicle: occ.vehicle,
+                            road: c.road,
+                            room: c.room,
+                            width: vehicles[occ.vehicle as usize].width,
                         },
                     ));
                 }
@@ -137,5 +142,36 @@ impl LaneIndex {
     /// Conflict zones of `lane` with a body of another lane in them.
     pub fn blocked_zones(&self, lane: LaneId) -> &[BlockedZone] {
         self.blocked.get(lane)
+    }
+}
+
+/// The part of a body behind its lane: on `lane` (the one before, at `rear`
+/// and `front` relative to its end), and, where it reaches further back than
+/// that lane is long, on every lane before that: the vehicle does not remember
+/// which it came from, and a body across a merge blocks both anyway.
+fn push_tail(
+    net: &LaneNetwork,
+    items: &mut Vec<(LaneId, Occupant)>,
+    lane: LaneId,
+    rear: f64,
+    front: f64,
+    speed: f64,
+    vehicle: u32,
+) {
+    let len = net.lane(lane).length();
+    items.push((
+        lane,
+        Occupant {
+            rear: len + rear,
+            front: len + front,
+            speed,
+            vehicle,
+            ghost: false,
+        },
+    ));
+    if len + rear < 0.0 {
+        for &p in &net.lane(lane).prev {
+            push_tail(net, items, p, len + rear, len + front, speed, vehicle);
+        }
     }
 }

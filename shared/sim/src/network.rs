@@ -21,16 +21,16 @@ pub struct Lane {
     length: f64,
     /// Where a signalised lane stops its traffic (stop line, else the lane end).
     light_stop: f64,
-    /// Smallest start and largest end of the lane's conflict zones (empty: +inf, -inf).
-    pub conflict_span: (f64, f64),
     pub light: Option<u32>,
     /// Junction this intersection lane belongs to.
     pub junction: Option<u32>,
     pub intersection: bool,
     pub turn: TurnDirection,
     pub line: Polyline,
-    /// Where other lanes of the junction come close enough for two vehicles to touch.
+    /// Where other lanes come close enough for two vehicles to touch.
     pub conflicts: Vec<Conflict>,
+    /// Some of `conflicts` are road conflicts (outside right of way).
+    pub road_conflicts: bool,
     pub next: Vec<LaneId>,
     pub name: String,
     pub width: f64,
@@ -158,7 +158,6 @@ impl LaneNetwork {
                 Lane {
                     length: line.length(),
                     light_stop: stop_s.unwrap_or(line.length()),
-                    conflict_span: (f64::INFINITY, f64::NEG_INFINITY),
                     name: def.name.clone(),
                     stop_s,
                     stop_center,
@@ -173,6 +172,7 @@ impl LaneNetwork {
                     right_of_way: def.right_of_way.iter().map(id).collect(),
                     junction: None,
                     conflicts: Vec::new(),
+                    road_conflicts: false,
                 }
             })
             .collect();
@@ -183,7 +183,8 @@ impl LaneNetwork {
                 }
             }
         }
-        let junction_count = find_conflicts_and_junctions(&mut lanes);
+        let junction_count =
+            find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);
 
         let mut kinds: Vec<VehicleKind> = Vec::new();
         let mut kind_index = |name: &str| intern_kind(&mut kinds, name).expect("validated");

@@ -1,5 +1,6 @@
 //! `trafficmesh bench tick`: tick cost on a full grid, for `perf stat` and reports.
 
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 use anyhow::{Result, bail};
@@ -41,6 +42,10 @@ pub struct TickArgs {
     warmup: f64,
     #[arg(long, default_value_t = 0)]
     threads: usize,
+    /// Also report the time per tick of each phase (spawn, lane index,
+    /// cognition, ...) and the share spent on one thread only.
+    #[arg(long)]
+    phases: bool,
     #[arg(long)]
     json: bool,
 }
@@ -60,6 +65,12 @@ struct TickReport {
     realtime_factor_at_dt_0_02: f64,
     /// Resident memory added by the vehicles (after warm-up), per vehicle.
     bytes_per_vehicle: f64,
+    /// With --phases: milliseconds per tick spent in each phase.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    phase_ms_per_tick: Option<BTreeMap<&'static str, f64>>,
+    /// With --phases: the share of the tick spent in phases that run on one thread.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    serial_share: Option<f64>,
 }
 
 /// Resident set size of this process, bytes (Linux; 0 elsewhere).
@@ -114,6 +125,9 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             world.step();
             world.drain_events().for_each(drop);
         }
+        if a.phases {
+            world.phase_times_mut().enable();
+        }
         for _ in 0..a.ticks {
             let t = Instant::now();
             world.step();
@@ -126,6 +140,23 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     let total: f64 = durations.iter().sum();
     durations.sort_by(f64::total_cmp);
     let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
+    let phase_ms_per_tick: Option<BTreeMap<_, _>> = a.phases.then(|| {
+        world
+            .phase_times()
+            .totals()
+            .map(|(p, d)| (p.name(), d.as_secs_f64() * 1e3 / a.ticks as f64))
+            .collect()
+    });
+    let serial_share = a.phases.then(|| {
+        let (mut serial, mut all) = (0.0, 0.0);
+        for (p, d) in world.phase_times().totals() {
+            all += d.as_secs_f64();
+            if !p.parallel() {
+                serial += d.as_secs_f64();
+            }
+        }
+        serial / all.max(f64::MIN_POSITIVE)
+    });
     let report = TickReport {
         grid: a.size,
         vehicles: placed,
@@ -139,6 +170,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         tick_p99_ms: pct(0.99),
         realtime_factor_at_dt_0_02: 0.02 / (total / a.ticks as f64),
         bytes_per_vehicle: rss_traffic.saturating_sub(rss_map) as f64 / placed.max(1) as f64,
+        phase_ms_per_tick,
+        serial_share,
     };
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -6,8 +6,12 @@ use glam::DVec2;
 
 use super::Snapshot;
 use super::path::{lanes_ahead, needed_lookahead};
+use trafficmesh_model::LightColor;
+
+use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
+use crate::lane_index::Occupant;
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
@@ -62,6 +66,9 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             range,
             best.distance,
         ));
+        if net.lane(lane).road_conflicts {
+            best = best.nearer(nearer_claimant(snap, i, lane, offset, range, best.distance));
+        }
         if k >= 1
             && !on_intersection
             && net.lane(lane).intersection
@@ -137,7 +144,10 @@ fn conflicting_bodies(
             || zone_start > range
             || zone_start >= nearest.distance
             || z.vehicle as usize == i
-            || v.path.contains(&z.source)
+            // A junction lane of our own path: its bodies are our leaders. A road
+            // conflict with our own path is a tight loop: the body is in the way.
+            || (!z.road && v.path.contains(&z.source))
+            || z.passable(v.width)
         {
             continue;
         }
@@ -156,6 +166,72 @@ fn conflicting_bodies(
         }
     }
     nearest
+}
+
+/// Road conflicts of `lane` ahead (no right of way covers them): the vehicle
+/// nearer the zone goes first, so we stop before a zone that another vehicle,
+/// nearer to it and held by nothing before it, is about to enter.
+fn nearer_claimant(
+    snap: &Snapshot,
+    i: usize,
+    lane: u32,
+    offset: f64,
+    range: f64,
+    best: f64,
+) -> FrontObstacle {
+    let mut nearest = FrontObstacle {
+        distance: best,
+        vehicle: None,
+    };
+    for c in snap.net.lane(lane).conflicts.iter().filter(|c| c.road) {
+        let ours = offset + c.a0;
+        if ours > range || ours >= nearest.distance {
+            // Sorted by zone start: the rest lie further.
+            break;
+        }
+        // Inside the zone already: committed, the other waits for our body.
+        if ours <= 0.0 {
+            continue;
+        }
+        if let Some(other) = claimant(snap, i, c, ours) {
+            nearest = FrontObstacle {
+                distance: ours,
+                vehicle: Some(other),
+            };
+        }
+    }
+    nearest
+}
+
+/// A vehicle on the other lane of conflict `c`, or on a lane just before it,
+/// that will reach the zone before us: too wide to pass us there, its front
+/// nearer to the zone than ours (`ours` metres; equally near, the lower index
+/// goes first), and neither an obstacle nor a red light stops it before.
+fn claimant(snap: &Snapshot, i: usize, c: &Conflict, ours: f64) -> Option<u32> {
+    let (lane, zone) = (c.other, c.b0);
+    let width = snap.vehicles[i].width;
+    let first = |occupants: &[Occupant], zone_on_lane: f64| {
+        occupants.iter().find_map(|o| {
+            let to_zone = zone_on_lane - o.front;
+            let nearer = to_zone < ours || (to_zone == ours && (o.vehicle as usize) < i);
+            if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
+                return None;
+            }
+            let w = &snap.vehicles[o.vehicle as usize];
+            let held = (width + w.width) * 0.5 < c.room
+                || w.distance_to_front < to_zone
+                || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
+                || !w.path.iter().take(3).any(|&l| l == lane);
+            (!held).then_some(o.vehicle)
+        })
+    };
+    let l = snap.net.lane(lane);
+    first(snap.index.on_lane(lane), zone).or_else(|| {
+        l.prev.iter().find_map(|&p| {
+            let before = snap.net.lane(p).length();
+            first(snap.index.on_lane(p), before + zone)
+        })
+    })
 }
 
 /// How far ahead a lane-change ghost must be for a vehicle to stop for it: where

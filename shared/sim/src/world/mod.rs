@@ -2,6 +2,7 @@
 //! one tick at a time. This is the NPCVehicleSimulator and the TrafficManager's
 //! spawn loop in one deterministic, I/O-free object.
 
+mod phases;
 mod spawning;
 mod step;
 
@@ -19,6 +20,7 @@ use crate::network::LaneNetwork;
 use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
 use crate::vehicle::{Vehicle, VehicleId};
 
+pub use phases::{Phase, PhaseTimes};
 pub use spawning::SpawnRejection;
 pub use step::MIN_VEHICLES_PER_TASK;
 
@@ -81,6 +83,7 @@ pub struct World {
     branch_stats: BranchStats,
     next_id: VehicleId,
     events: Vec<SimEvent>,
+    phase_times: PhaseTimes,
 }
 
 impl World {
@@ -107,12 +110,22 @@ impl World {
             branch_stats: BranchStats::default(),
             next_id: 0,
             events: Vec::new(),
+            phase_times: PhaseTimes::default(),
         }
     }
 
     /// Index of a vehicle kind by name (case-insensitive, built-in catalogue).
     pub fn kind_index(&mut self, name: &str) -> Option<usize> {
         self.net.kind_index(name)
+    }
+
+    /// Time per tick phase, accumulated once enabled with [`World::phase_times_mut`].
+    pub fn phase_times(&self) -> &PhaseTimes {
+        &self.phase_times
+    }
+
+    pub fn phase_times_mut(&mut self) -> &mut PhaseTimes {
+        &mut self.phase_times
     }
 
     pub fn network(&self) -> &LaneNetwork {

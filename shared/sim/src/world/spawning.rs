@@ -104,34 +104,33 @@ impl World {
             return false;
         }
         // A lane shorter than the new body: it reaches onto the next lanes too.
-        let overflow = front + CLEARANCE - l.length();
-        if overflow > 0.0
-            && l.next.iter().any(|&n| {
-                self.index
-                    .on_lane(n)
-                    .iter()
-                    .any(|o| o.rear < overflow && o.front > -CLEARANCE)
-            })
-        {
+        if self.ahead_taken(lane, front + CLEARANCE - l.length(), kind.width) {
             return false;
         }
         // Bodies of other lanes standing in this lane's conflict zones near its start.
-        if self
-            .index
-            .blocked_zones(lane)
-            .iter()
-            .any(|z| z.start < front + CLEARANCE && z.end > rear - CLEARANCE)
-        {
+        if self.index.blocked_zones(lane).iter().any(|z| {
+            z.start < front + CLEARANCE && z.end > rear - CLEARANCE && !z.passable(kind.width)
+        }) {
             return false;
         }
         for &p in &l.prev {
-            let len = self.net.lane(p).length();
-            let arriving = self.index.on_lane(p).iter().any(|o| {
-                len - o.front < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
-            });
-            if arriving {
+            if self.arriving(p, self.net.lane(p).length()) {
                 return false;
             }
+        }
+        // Vehicles of other lanes about to enter a conflict zone the new body stands in.
+        let entering = l.conflicts.iter().any(|c| {
+            c.a0 < front + CLEARANCE
+                && (self.arriving(c.other, c.b0)
+                    || self
+                        .net
+                        .lane(c.other)
+                        .prev
+                        .iter()
+                        .any(|&p| self.arriving(p, self.net.lane(p).length() + c.b0)))
+        });
+        if entering {
+            return false;
         }
         let start = l.line.point(0);
         if spawned_here
@@ -150,6 +149,35 @@ impl World {
             }
         }
         true
+    }
+
+    /// Is any of the first `overflow` metres after `lane` taken, by a body or
+    /// by a body of another lane in a conflict zone there that a vehicle
+    /// `width` wide cannot pass, on any lane that follows (however many lanes
+    /// that spans)?
+    fn ahead_taken(&self, lane: LaneId, overflow: f64, width: f64) -> bool {
+        overflow > 0.0
+            && self.net.lane(lane).next.iter().any(|&n| {
+                self.index
+                    .on_lane(n)
+                    .iter()
+                    .any(|o| o.rear < overflow && o.front > -CLEARANCE)
+                    || self
+                        .index
+                        .blocked_zones(n)
+                        .iter()
+                        .any(|z| z.start < overflow && !z.passable(width))
+                    || self.ahead_taken(n, overflow - self.net.lane(n).length(), width)
+            })
+    }
+
+    /// Does a vehicle on `lane` reach arc length `s` of it before it could stop?
+    fn arriving(&self, lane: LaneId, s: f64) -> bool {
+        self.index.on_lane(lane).iter().any(|o| {
+            let ahead = s - o.front;
+            ahead >= 0.0
+                && ahead < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
+        })
     }
 
     /// Registers a new vehicle with its front bumper at `s` on `lane`.

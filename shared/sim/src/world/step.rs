@@ -3,6 +3,7 @@
 use rayon::prelude::*;
 
 use super::World;
+use super::phases::Phase;
 use crate::branching::BranchChoice;
 use crate::cognition::path::advance_and_extend;
 use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
@@ -47,17 +48,26 @@ impl World {
     /// Advances the world by one tick of `config.dt` seconds.
     pub fn step(&mut self) {
         let dt = self.config.dt;
+        self.phase_times.begin();
         self.lights.update(self.time);
+        self.phase_times.lap(Phase::Lights);
         self.spawn_phase();
+        self.phase_times.lap(Phase::Spawn);
         self.follow_lanes();
+        self.phase_times.lap(Phase::FollowLanes);
         self.index.rebuild(&self.net, &self.vehicles);
+        self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
         }
+        self.phase_times.lap(Phase::LaneChanges);
 
         let mut perceptions = self.cognition();
+        self.phase_times.lap(Phase::Cognition);
         deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
+        self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
+        self.phase_times.lap(Phase::Zebra);
         let (net, config) = (&self.net, &self.config.vehicle);
         self.vehicles
             .par_iter_mut()
@@ -74,9 +84,11 @@ impl World {
                 v.turn_signal = turn_signal(net, v);
                 update_trip(v, dt);
             });
+        self.phase_times.lap(Phase::Motion);
         self.time += dt;
         self.ticks += 1;
         self.despawn_flagged();
+        self.phase_times.lap(Phase::Despawn);
     }
 
     /// Lane advance and branch choices: parallel (each vehicle draws from its own

@@ -1,0 +1,92 @@
+//! Optional wall-clock time per tick phase, for `bench tick --phases`: where a
+//! tick's time goes, and how much of it runs on one thread only.
+
+use std::time::{Duration, Instant};
+
+/// The phases of one tick, in the order they run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Phase {
+    Lights,
+    Spawn,
+    FollowLanes,
+    LaneIndex,
+    LaneChanges,
+    Cognition,
+    Deadlock,
+    Zebra,
+    Motion,
+    Despawn,
+}
+
+impl Phase {
+    pub const ALL: [Phase; 10] = [
+        Phase::Lights,
+        Phase::Spawn,
+        Phase::FollowLanes,
+        Phase::LaneIndex,
+        Phase::LaneChanges,
+        Phase::Cognition,
+        Phase::Deadlock,
+        Phase::Zebra,
+        Phase::Motion,
+        Phase::Despawn,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Phase::Lights => "lights",
+            Phase::Spawn => "spawn",
+            Phase::FollowLanes => "follow_lanes",
+            Phase::LaneIndex => "lane_index",
+            Phase::LaneChanges => "lane_changes",
+            Phase::Cognition => "cognition",
+            Phase::Deadlock => "deadlock",
+            Phase::Zebra => "zebra",
+            Phase::Motion => "motion",
+            Phase::Despawn => "despawn",
+        }
+    }
+
+    /// Whether the phase runs on the thread pool (the others run on one thread).
+    pub fn parallel(self) -> bool {
+        matches!(self, Phase::FollowLanes | Phase::Cognition | Phase::Motion)
+    }
+}
+
+/// Accumulated time per phase; off (and free) unless enabled.
+#[derive(Clone, Debug, Default)]
+pub struct PhaseTimes {
+    enabled: bool,
+    lap_start: Option<Instant>,
+    totals: [Duration; Phase::ALL.len()],
+}
+
+impl PhaseTimes {
+    pub fn enable(&mut self) {
+        self.enabled = true;
+    }
+
+    /// Time accumulated in each phase since timing was enabled or reset.
+    pub fn totals(&self) -> impl Iterator<Item = (Phase, Duration)> + '_ {
+        Phase::ALL.iter().map(|&p| (p, self.totals[p as usize]))
+    }
+
+    pub fn reset(&mut self) {
+        self.totals = Default::default();
+    }
+
+    pub(super) fn begin(&mut self) {
+        if self.enabled {
+            self.lap_start = Some(Instant::now());
+        }
+    }
+
+    /// Charges the time since the last lap to `phase`.
+    pub(super) fn lap(&mut self, phase: Phase) {
+        if let Some(start) = self.lap_start {
+            let now = Instant::now();
+            self.totals[phase as usize] += now - start;
+            self.lap_start = Some(now);
+        }
+    }
+}
