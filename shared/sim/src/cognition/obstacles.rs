@@ -3,11 +3,10 @@
 //! conflict zone of the path, the ego, or a full exit lane beyond a junction.
 
 use glam::DVec2;
+use trafficmesh_model::LightColor;
 
 use super::Snapshot;
 use super::path::{lanes_ahead, needed_lookahead};
-use trafficmesh_model::LightColor;
-
 use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
@@ -218,11 +217,11 @@ fn claimant(snap: &Snapshot, i: usize, c: &Conflict, ours: f64) -> Option<u32> {
                 return None;
             }
             let w = &snap.vehicles[o.vehicle as usize];
-            let held = (width + w.width) * 0.5 < c.room
-                || w.distance_to_front < to_zone
-                || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
-                || !w.path.iter().take(3).any(|&l| l == lane);
-            (!held).then_some(o.vehicle)
+            let passes_us = (width + w.width) * 0.5 < c.room;
+            let held = w.distance_to_front < to_zone
+                || (w.passability == LightColor::Red && w.distance_to_light < to_zone);
+            let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
+            (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
         })
     };
     let l = snap.net.lane(lane);
