@@ -158,14 +158,14 @@ fn heading_at(lane: &Lane, s: f64) -> DVec2 {
     lane.line.direction(lane.line.segment_at(s))
 }
 
-fn bounding_cells(lane: &Lane) -> impl Iterator<Item = (i64, i64)> {
+/// Grid cells of the lane's bounding box grown by `margin`.
+fn bounding_cells(lane: &Lane, margin: f64) -> impl Iterator<Item = (i64, i64)> {
     let (mut lo, mut hi) = (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY));
     for p in lane.line.points() {
         lo = lo.min(p);
         hi = hi.max(p);
     }
     let c = |v: f64| (v / GRID_CELL).floor() as i64;
-    let margin = ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP;
     let (x0, x1, y0, y1) = (
         c(lo.x - margin),
         c(hi.x + margin),
@@ -247,13 +247,16 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
         .filter(|&i| lanes[i].intersection)
         .collect();
     let mut grid: FxHashMap<(i64, i64), Vec<usize>> = FxHashMap::default();
-    let candidates: Vec<usize> = if outside_junctions {
-        (0..lanes.len()).collect()
+    let (candidates, margin): (Vec<usize>, f64) = if outside_junctions {
+        (
+            (0..lanes.len()).collect(),
+            ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP,
+        )
     } else {
-        inter.clone()
+        (inter.clone(), CONFLICT_DISTANCE)
     };
     for &i in &candidates {
-        for cell in bounding_cells(&lanes[i]) {
+        for cell in bounding_cells(&lanes[i], margin) {
             grid.entry(cell).or_default().push(i);
         }
     }
