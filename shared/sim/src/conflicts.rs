@@ -97,9 +97,9 @@ fn close_intervals(
         let s = (k as f64 * SAMPLE_STEP).min(len);
         let p = a.line.point_at(s).0;
         let t = b.line.project(p);
+        let distance = b.line.distance_to(p);
         let (reach, room) = if road {
             let sweeps = sweep(lanes, ia, s) + sweep(lanes, ib, t);
-            let distance = b.line.distance_to(p);
             (
                 ROAD_CONFLICT_DISTANCE + sweeps,
                 (distance - sweeps).max(0.0),
@@ -107,8 +107,8 @@ fn close_intervals(
         } else {
             (CONFLICT_DISTANCE, 0.0)
         };
-        let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > JOINT_DISTANCE);
-        let close = apart && b.line.distance_to(p) < reach;
+        let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > distance + JOINT_SLACK);
+        let close = apart && distance < reach;
         open = match (close, open) {
             (true, None) => Some((s, room)),
             (true, Some((s0, least))) => Some((s0, least.min(room))),
@@ -178,10 +178,11 @@ fn bounding_cells(lane: &Lane, margin: f64) -> impl Iterator<Item = (i64, i64)> 
 /// Lanes one after the other (within this many metres of lanes between them)
 /// carry one stream of vehicles: near their joint they do not conflict.
 const LINKED_DISTANCE: f64 = 10.0;
-/// Points of linked lanes less than this far apart along the lanes are the
-/// joint itself; farther apart (a hairpin folding back on itself), bodies on
-/// the two can still touch.
-const JOINT_DISTANCE: f64 = 20.0;
+/// Two points of linked lanes whose distance along the lanes exceeds their
+/// distance across by more than this lie on a lane folding back on itself (a
+/// hairpin): bodies there can touch although one follows the other. Closer to
+/// a straight line, they are the joint itself, where only leaders matter.
+const JOINT_SLACK: f64 = 4.0;
 
 /// How two lanes of a conflict pair follow each other, if they do.
 #[derive(Clone, Copy)]
