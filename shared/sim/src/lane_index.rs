@@ -1,9 +1,12 @@
 //! Per-lane ordering of vehicles, rebuilt each tick: the leader, conflict and
 //! spawn-clearance look-ups read it instead of scanning every vehicle.
 
+use rayon::prelude::*;
+
 use crate::buckets::Buckets;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::Vehicle;
+use crate::world::MIN_VEHICLES_PER_TASK;
 
 /// One vehicle's body on one lane.
 #[derive(Clone, Copy, Debug)]
@@ -56,54 +59,46 @@ pub struct LaneIndex {
     /// Scratch lists, kept for their allocations.
     occupant_items: Vec<(LaneId, Occupant)>,
     blocked_items: Vec<(LaneId, BlockedZone)>,
+    chunks: Vec<ChunkItems>,
     /// Vehicles waiting to change lanes (those with a ghost), in vehicle order.
     lane_changers: Vec<u32>,
 }
 
-impl LaneIndex {
-    pub fn empty(lane_count: usize) -> Self {
-        LaneIndex {
-            occupants: Buckets::build(lane_count, &[]),
-            blocked: Buckets::build(lane_count, &[]),
-            ..LaneIndex::default()
-        }
-    }
+/// The index items of one chunk of vehicles (kept for their allocations).
+#[derive(Clone, Debug, Default)]
+struct ChunkItems {
+    occupants: Vec<(LaneId, Occupant)>,
+    blocked: Vec<(LaneId, BlockedZone)>,
+    lane_changers: Vec<u32>,
+}
 
-    pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
-        let items = &mut self.occupant_items;
+impl ChunkItems {
+    /// Bodies (and ghosts) of `some`, the vehicles from index `first` on, and
+    /// the conflict zones their bodies block.
+    fn fill(&mut self, net: &LaneNetwork, vehicles: &[Vehicle], some: &[Vehicle], first: u32) {
+        let items = &mut self.occupants;
         items.clear();
         self.lane_changers.clear();
-        for (i, v) in vehicles.iter().enumerate() {
-            items.push((
-                v.path[0],
-                Occupant {
-                    rear: v.rear_s(),
-                    front: v.s,
-                    speed: v.speed,
-                    vehicle: i as u32,
-                    ghost: false,
-                },
-            ));
+        for (i, v) in (first..).zip(some) {
+            let body = |ghost| Occupant {
+                rear: v.rear_s(),
+                front: v.s,
+                speed: v.speed,
+                vehicle: i,
+                ghost,
+            };
+            items.push((v.path[0], body(false)));
             if let Some(target) = v.lane_change {
-                self.lane_changers.push(i as u32);
-                items.push((
-                    target,
-                    Occupant {
-                        rear: v.rear_s(),
-                        front: v.s,
-                        speed: v.speed,
-                        vehicle: i as u32,
-                        ghost: true,
-                    },
-                ));
+                self.lane_changers.push(i);
+                items.push((target, body(true)));
             }
             if v.rear_s() < 0.0
                 && let Some(p) = v.prev_lane
             {
-                push_tail(net, items, p, v.rear_s(), v.s, v.speed, i as u32);
+                push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
             }
         }
-        let blocked = &mut self.blocked_items;
+        let blocked = &mut self.blocked;
         blocked.clear();
         for &(lane, occ) in items.iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
@@ -124,10 +119,53 @@ impl LaneIndex {
                 }
             }
         }
-        self.occupants.rebuild(net.lanes.len(), items);
-        self.occupants
-            .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
-        self.blocked.rebuild(net.lanes.len(), blocked);
+    }
+}
+
+impl LaneIndex {
+    pub fn empty(lane_count: usize) -> Self {
+        LaneIndex {
+            occupants: Buckets::build(lane_count, &[]),
+            blocked: Buckets::build(lane_count, &[]),
+            ..LaneIndex::default()
+        }
+    }
+
+    pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
+        // Items per chunk of vehicles in parallel, then joined in vehicle order,
+        // so the result does not depend on the thread count.
+        let chunk_count = vehicles.len().div_ceil(MIN_VEHICLES_PER_TASK);
+        self.chunks.resize_with(chunk_count, Default::default);
+        self.chunks
+            .par_iter_mut()
+            .zip(vehicles.par_chunks(MIN_VEHICLES_PER_TASK))
+            .enumerate()
+            .for_each(|(k, (chunk, some))| {
+                chunk.fill(net, vehicles, some, (k * MIN_VEHICLES_PER_TASK) as u32)
+            });
+        self.occupant_items.clear();
+        self.blocked_items.clear();
+        self.lane_changers.clear();
+        for chunk in &self.chunks {
+            self.occupant_items.extend_from_slice(&chunk.occupants);
+            self.blocked_items.extend_from_slice(&chunk.blocked);
+            self.lane_changers.extend_from_slice(&chunk.lane_changers);
+        }
+        let lanes = net.lanes.len();
+        let (occupants, blocked) = (&mut self.occupants, &mut self.blocked);
+        let (occupant_items, blocked_items) = (&self.occupant_items, &self.blocked_items);
+        let mut sort_occupants = || {
+            occupants.rebuild(lanes, occupant_items);
+            occupants
+                .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
+        };
+        let mut group_blocked = || blocked.rebuild(lanes, blocked_items);
+        if chunk_count > 1 {
+            rayon::join(sort_occupants, group_blocked);
+        } else {
+            sort_occupants();
+            group_blocked();
+        }
     }
 
     /// Vehicles waiting to change lanes, in vehicle order.
