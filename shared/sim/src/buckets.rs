@@ -32,6 +32,12 @@ impl<T: Copy> Buckets<T> {
 
     /// Regroups in place (a stable counting sort over the keys in use).
     pub fn rebuild(&mut self, key_count: usize, items: &[(u32, T)]) {
+        self.rebuild_from_parts(key_count, &[items]);
+    }
+
+    /// Regroups in place the items of `parts` taken one after the other.
+    pub fn rebuild_from_parts<P: AsRef<[(u32, T)]>>(&mut self, key_count: usize, parts: &[P]) {
+        let all = || parts.iter().flat_map(|p| p.as_ref().iter());
         if self.ranges.len() == key_count {
             for &key in &self.keys {
                 self.ranges[key as usize] = (0, 0);
@@ -42,7 +48,7 @@ impl<T: Copy> Buckets<T> {
         }
         self.keys.clear();
         // Count into `.1`.
-        for &(key, _) in items {
+        for &(key, _) in all() {
             let range = &mut self.ranges[key as usize];
             if range.1 == 0 {
                 self.keys.push(key);
@@ -58,8 +64,8 @@ impl<T: Copy> Buckets<T> {
             start += count;
         }
         self.items.clear();
-        self.items.extend(items.iter().map(|(_, item)| *item));
-        for &(key, item) in items {
+        self.items.extend(all().map(|(_, item)| *item));
+        for &(key, item) in all() {
             let range = &mut self.ranges[key as usize];
             self.items[range.1 as usize] = item;
             range.1 += 1;

@@ -56,9 +56,7 @@ impl BlockedZone {
 pub struct LaneIndex {
     occupants: Buckets<Occupant>,
     blocked: Buckets<BlockedZone>,
-    /// Scratch lists, kept for their allocations.
-    occupant_items: Vec<(LaneId, Occupant)>,
-    blocked_items: Vec<(LaneId, BlockedZone)>,
+    /// Items per chunk of vehicles, kept for their allocations.
     chunks: Vec<ChunkItems>,
     /// Vehicles waiting to change lanes (those with a ghost), in vehicle order.
     lane_changers: Vec<u32>,
@@ -143,23 +141,23 @@ impl LaneIndex {
             .for_each(|(k, (chunk, some))| {
                 chunk.fill(net, vehicles, some, (k * MIN_VEHICLES_PER_TASK) as u32)
             });
-        self.occupant_items.clear();
-        self.blocked_items.clear();
         self.lane_changers.clear();
         for chunk in &self.chunks {
-            self.occupant_items.extend_from_slice(&chunk.occupants);
-            self.blocked_items.extend_from_slice(&chunk.blocked);
             self.lane_changers.extend_from_slice(&chunk.lane_changers);
         }
         let lanes = net.lanes.len();
         let (occupants, blocked) = (&mut self.occupants, &mut self.blocked);
-        let (occupant_items, blocked_items) = (&self.occupant_items, &self.blocked_items);
+        let chunks = &self.chunks;
+        let occupant_parts: Vec<&[(LaneId, Occupant)]> =
+            chunks.iter().map(|c| c.occupants.as_slice()).collect();
+        let blocked_parts: Vec<&[(LaneId, BlockedZone)]> =
+            chunks.iter().map(|c| c.blocked.as_slice()).collect();
         let mut sort_occupants = || {
-            occupants.rebuild(lanes, occupant_items);
+            occupants.rebuild_from_parts(lanes, &occupant_parts);
             occupants
                 .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
         };
-        let mut group_blocked = || blocked.rebuild(lanes, blocked_items);
+        let mut group_blocked = || blocked.rebuild_from_parts(lanes, &blocked_parts);
         if chunk_count > 1 {
             rayon::join(sort_occupants, group_blocked);
         } else {
