@@ -9,11 +9,16 @@
 //! between any lanes whose vehicles could touch: there the vehicle nearer the
 //! zone goes first.
 
+mod link;
+mod sweep;
+
 use glam::DVec2;
 use rustc_hash::FxHashMap;
 
 use crate::geometry::segments_intersect;
 use crate::network::{Lane, LaneId};
+use link::{JOINT_SLACK, Link, link};
+use sweep::{MAX_SWEEP, sweep};
 
 /// Half a truck's width plus half a car's width, rounded up.
 pub const CONFLICT_DISTANCE: f64 = 2.6;
@@ -41,40 +46,6 @@ pub struct Conflict {
     /// less what long bodies swing out on curves. Two vehicles whose half
     /// widths add up to less pass each other. Zero for junction conflicts.
     pub room: f64,
-}
-
-/// Half the longest vehicle's length (the truck's): how far a body reaches
-/// along its lane from the point it stands on.
-const HALF_BODY: f64 = 4.6;
-/// The most a road conflict is widened for a body swinging out on a curve.
-const MAX_SWEEP: f64 = 2.0;
-
-/// How far a long body on lane `id` at `s` can swing out of the lane's
-/// corridor: a rigid body does not bend with the lane, so on a curve (or where
-/// the lane joins a sharply turning one) its ends leave the centreline by
-/// about the chord's offset over the body's length.
-fn sweep(lanes: &[Lane], id: usize, s: f64) -> f64 {
-    let lane = &lanes[id];
-    let len = lane.length();
-    let headings = |lane: &Lane, s: f64| heading_at(lane, s.clamp(0.0, lane.length()));
-    let here = headings(lane, s);
-    let mut turn = here
-        .dot(headings(lane, s - HALF_BODY))
-        .min(here.dot(headings(lane, s + HALF_BODY)));
-    if s + HALF_BODY > len {
-        for &n in &lane.next {
-            let n = &lanes[n as usize];
-            turn = turn.min(here.dot(headings(n, s + HALF_BODY - len)));
-        }
-    }
-    if s < HALF_BODY {
-        for &p in &lane.prev {
-            let p = &lanes[p as usize];
-            turn = turn.min(here.dot(headings(p, p.length() + s - HALF_BODY)));
-        }
-    }
-    let angle = turn.clamp(-1.0, 1.0).acos();
-    (HALF_BODY * (angle * 0.5).sin()).min(MAX_SWEEP)
 }
 
 /// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b, with
@@ -154,7 +125,7 @@ fn lanes_come_close(a: &Lane, b: &Lane, reach: f64) -> bool {
     })
 }
 
-fn heading_at(lane: &Lane, s: f64) -> DVec2 {
+pub(super) fn heading_at(lane: &Lane, s: f64) -> DVec2 {
     lane.line.direction(lane.line.segment_at(s))
 }
 
@@ -173,71 +144,6 @@ fn bounding_cells(lane: &Lane, margin: f64) -> impl Iterator<Item = (i64, i64)> 
         c(hi.y + margin),
     );
     (x0..=x1).flat_map(move |x| (y0..=y1).map(move |y| (x, y)))
-}
-
-/// Lanes one after the other (within this many metres of lanes between them)
-/// carry one stream of vehicles: near their joint they do not conflict.
-const LINKED_DISTANCE: f64 = 10.0;
-/// Two points of linked lanes whose distance along the lanes exceeds their
-/// distance across by more than this lie on a lane folding back on itself (a
-/// hairpin): bodies there can touch although one follows the other. Closer to
-/// a straight line, they are the joint itself, where only leaders matter.
-const JOINT_SLACK: f64 = 4.0;
-
-/// How two lanes of a conflict pair follow each other, if they do.
-#[derive(Clone, Copy)]
-enum Link {
-    /// Vehicles go from the first lane to the second, with `gap` metres of lanes between.
-    Forward {
-        gap: f64,
-    },
-    Backward {
-        gap: f64,
-    },
-}
-
-impl Link {
-    /// Along-lane metres between arc length `s` of the first lane and `t` of the second.
-    fn along(self, first_len: f64, second_len: f64, s: f64, t: f64) -> f64 {
-        match self {
-            Link::Forward { gap } => first_len - s + gap + t,
-            Link::Backward { gap } => second_len - t + gap + s,
-        }
-    }
-
-    fn reversed(self) -> Link {
-        match self {
-            Link::Forward { gap } => Link::Backward { gap },
-            Link::Backward { gap } => Link::Forward { gap },
-        }
-    }
-}
-
-/// The fewest metres of lanes between `from` and `to` through successors, if
-/// `to` is reached with less than LINKED_DISTANCE in between.
-fn link_gap(lanes: &[Lane], from: usize, to: usize) -> Option<f64> {
-    let mut best: Option<f64> = None;
-    let mut frontier = vec![(from, 0.0)];
-    while let Some((lane, gap)) = frontier.pop() {
-        for &n in &lanes[lane].next {
-            let n = n as usize;
-            if n == to {
-                best = Some(best.map_or(gap, |b: f64| b.min(gap)));
-                continue;
-            }
-            let through = gap + lanes[n].length();
-            if through < LINKED_DISTANCE {
-                frontier.push((n, through));
-            }
-        }
-    }
-    best
-}
-
-fn link(lanes: &[Lane], a: usize, b: usize) -> Option<Link> {
-    link_gap(lanes, a, b)
-        .map(|gap| Link::Forward { gap })
-        .or_else(|| link_gap(lanes, b, a).map(|gap| Link::Backward { gap }))
 }
 
 /// Fills every intersection lane's conflicts and junction id, and with
