@@ -73,7 +73,7 @@ struct ChunkItems {
 impl ChunkItems {
     /// Bodies (and ghosts) of `some`, the vehicles from index `first` on, and
     /// the conflict zones their bodies block.
-    fn fill(&mut self, net: &LaneNetwork, vehicles: &[Vehicle], some: &[Vehicle], first: u32) {
+    fn fill(&mut self, net: &LaneNetwork, some: &[Vehicle], first: u32) {
         let items = &mut self.occupants;
         items.clear();
         self.lane_changers.clear();
@@ -111,7 +111,7 @@ impl ChunkItems {
                             vehicle: occ.vehicle,
                             road: c.road,
                             room: c.room,
-                            width: vehicles[occ.vehicle as usize].width,
+                            width: some[(occ.vehicle - first) as usize].width,
                         },
                     ));
                 }
@@ -139,7 +139,7 @@ impl LaneIndex {
             .zip(vehicles.par_chunks(MIN_VEHICLES_PER_TASK))
             .enumerate()
             .for_each(|(k, (chunk, some))| {
-                chunk.fill(net, vehicles, some, (k * MIN_VEHICLES_PER_TASK) as u32)
+                chunk.fill(net, some, (k * MIN_VEHICLES_PER_TASK) as u32)
             });
         self.lane_changers.clear();
         for chunk in &self.chunks {
@@ -173,6 +173,21 @@ impl LaneIndex {
 
     pub fn on_lane(&self, lane: LaneId) -> &[Occupant] {
         self.occupants.get(lane)
+    }
+
+    /// Occupants of `lane` and of the lanes just before it, each with its
+    /// front's arc length measured along `lane` (negative before its start).
+    pub fn on_lane_or_before<'a>(
+        &'a self,
+        net: &'a LaneNetwork,
+        lane: LaneId,
+    ) -> impl Iterator<Item = (&'a Occupant, f64)> + 'a {
+        let here = self.on_lane(lane).iter().map(|o| (o, o.front));
+        let before = net.lane(lane).prev.iter().flat_map(move |&p| {
+            let len = net.lane(p).length();
+            self.on_lane(p).iter().map(move |o| (o, o.front - len))
+        });
+        here.chain(before)
     }
 
     /// Conflict zones of `lane` with a body of another lane in them.

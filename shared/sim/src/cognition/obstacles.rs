@@ -10,7 +10,6 @@ use super::path::{lanes_ahead, needed_lookahead};
 use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
-use crate::lane_index::Occupant;
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
@@ -32,10 +31,15 @@ pub struct FrontObstacle {
 }
 
 impl FrontObstacle {
-    const NONE: FrontObstacle = FrontObstacle {
-        distance: f64::INFINITY,
-        vehicle: None,
-    };
+    const NONE: FrontObstacle = FrontObstacle::clear_to(f64::INFINITY);
+
+    /// Nothing nearer than `distance`: the starting point of a search.
+    const fn clear_to(distance: f64) -> FrontObstacle {
+        FrontObstacle {
+            distance,
+            vehicle: None,
+        }
+    }
 
     fn nearer(self, other: FrontObstacle) -> FrontObstacle {
         if other.distance < self.distance {
@@ -82,16 +86,12 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     // A lane change the route needs and has not found a gap for: wait before
     // the lane's end.
     if v.lane_change.is_some() {
-        best = best.nearer(FrontObstacle {
-            distance: (net.lane(v.path[0]).length() - v.s).max(0.0),
-            vehicle: None,
-        });
+        best = best.nearer(FrontObstacle::clear_to(
+            (net.lane(v.path[0]).length() - v.s).max(0.0),
+        ));
     }
     if let Some(ego) = snap.ego {
-        best = best.nearer(FrontObstacle {
-            distance: ego_distance(net, v, ego, range),
-            vehicle: None,
-        });
+        best = best.nearer(FrontObstacle::clear_to(ego_distance(net, v, ego, range)));
     }
     best
 }
@@ -133,10 +133,7 @@ fn conflicting_bodies(
     best: f64,
 ) -> FrontObstacle {
     let v = &snap.vehicles[i];
-    let mut nearest = FrontObstacle {
-        distance: best,
-        vehicle: None,
-    };
+    let mut nearest = FrontObstacle::clear_to(best);
     for z in snap.index.blocked_zones(lane) {
         let zone_start = offset + z.start;
         if offset + z.end <= 0.0
@@ -178,10 +175,7 @@ fn nearer_claimant(
     range: f64,
     best: f64,
 ) -> FrontObstacle {
-    let mut nearest = FrontObstacle {
-        distance: best,
-        vehicle: None,
-    };
+    let mut nearest = FrontObstacle::clear_to(best);
     for c in snap.net.lane(lane).conflicts.iter().filter(|c| c.road) {
         let ours = offset + c.a0;
         if ours > range || ours >= nearest.distance {
@@ -209,9 +203,10 @@ fn nearer_claimant(
 fn claimant(snap: &Snapshot, i: usize, c: &Conflict, ours: f64) -> Option<u32> {
     let (lane, zone) = (c.other, c.b0);
     let width = snap.vehicles[i].width;
-    let first = |occupants: &[Occupant], zone_on_lane: f64| {
-        occupants.iter().find_map(|o| {
-            let to_zone = zone_on_lane - o.front;
+    snap.index
+        .on_lane_or_before(snap.net, lane)
+        .find_map(|(o, front)| {
+            let to_zone = zone - front;
             let nearer = to_zone < ours || (to_zone == ours && (o.vehicle as usize) < i);
             if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
                 return None;
@@ -223,14 +218,6 @@ fn claimant(snap: &Snapshot, i: usize, c: &Conflict, ours: f64) -> Option<u32> {
             let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
             (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
         })
-    };
-    let l = snap.net.lane(lane);
-    first(snap.index.on_lane(lane), zone).or_else(|| {
-        l.prev.iter().find_map(|&p| {
-            let before = snap.net.lane(p).length();
-            first(snap.index.on_lane(p), before + zone)
-        })
-    })
 }
 
 /// How far ahead a lane-change ghost must be for a vehicle to stop for it: where

@@ -113,23 +113,13 @@ impl World {
         }) {
             return false;
         }
-        for &p in &l.prev {
-            if self.arriving(p, self.net.lane(p).length()) {
-                return false;
-            }
-        }
-        // Vehicles of other lanes about to enter a conflict zone the new body stands in.
-        let entering = l.conflicts.iter().any(|c| {
-            c.a0 < front + CLEARANCE
-                && (self.arriving(c.other, c.b0)
-                    || self
-                        .net
-                        .lane(c.other)
-                        .prev
-                        .iter()
-                        .any(|&p| self.arriving(p, self.net.lane(p).length() + c.b0)))
-        });
-        if entering {
+        // Vehicles about to drive onto the lane, or into a conflict zone the
+        // new body stands in.
+        if self.approaching(lane, 0.0)
+            || l.conflicts
+                .iter()
+                .any(|c| c.a0 < front + CLEARANCE && self.approaching(c.other, c.b0))
+        {
             return false;
         }
         let start = l.line.point(0);
@@ -171,13 +161,16 @@ impl World {
             })
     }
 
-    /// Does a vehicle on `lane` reach arc length `s` of it before it could stop?
-    fn arriving(&self, lane: LaneId, s: f64) -> bool {
-        self.index.on_lane(lane).iter().any(|o| {
-            let ahead = s - o.front;
-            ahead >= 0.0
-                && ahead < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
-        })
+    /// Does a vehicle on `lane`, or on a lane just before it, reach arc length
+    /// `s` of `lane` before it could stop?
+    fn approaching(&self, lane: LaneId, s: f64) -> bool {
+        self.index
+            .on_lane_or_before(&self.net, lane)
+            .any(|(o, front)| {
+                let ahead = s - front;
+                ahead >= 0.0
+                    && ahead < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
+            })
     }
 
     /// Registers a new vehicle with its front bumper at `s` on `lane`.
