@@ -53,7 +53,15 @@ pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: 
 /// sit on the path and the body is the chord between them, so a long vehicle
 /// cuts a curve slightly on the inside instead of swinging its tail into the
 /// next lane; the origin (rear axle) lies on that chord.
+///
+/// The pose is a function of the lane and arc position alone, so a vehicle
+/// standing where it stood last tick (a third of them in dense traffic) keeps it.
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
+    let at = (v.path[0], v.s);
+    if v.pose_at == at {
+        return;
+    }
+    v.pose_at = at;
     let (front, z_front) = point_on_path(net, v, 0.0);
     let (back, z_back) = point_on_path(net, v, -v.length);
     let body = front - back;

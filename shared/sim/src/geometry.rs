@@ -112,10 +112,18 @@ impl Polyline {
         if last == 0 {
             return 0;
         }
-        self.vertices
-            .partition_point(|v| v.cum <= s)
-            .saturating_sub(1)
-            .min(last)
+        // Curves are sampled at even spacing: start from the proportional guess
+        // and walk, which reads one or two vertices where a binary search reads
+        // four (each a cache line on a cold lane).
+        let v = &self.vertices;
+        let mut i = ((s / self.length) * (last + 1) as f64).clamp(0.0, last as f64) as usize;
+        while i > 0 && v[i].cum > s {
+            i -= 1;
+        }
+        while i < last && v[i + 1].cum <= s {
+            i += 1;
+        }
+        i
     }
 
     /// Unit direction of segment i.
@@ -261,8 +269,29 @@ pub fn polygons_overlap(a: &[DVec2], b: &[DVec2]) -> bool {
 
 #[cfg(test)]
 mod tests {
-    use super::angle_between;
+    use super::{Polyline, angle_between};
+    use glam::DVec2;
     use std::f64::consts::{PI, TAU};
+
+    #[test]
+    fn segment_at_finds_the_last_vertex_at_or_before_s_on_uneven_spacing() {
+        // Uneven segments and a zero-length one (two vertices at 4 m).
+        let xs = [0.0, 0.5, 4.0, 4.0, 4.2, 9.0, 30.0];
+        let line = Polyline::new(
+            xs.iter().map(|&x| DVec2::new(x, 0.0)).collect(),
+            vec![0.0; xs.len()],
+        );
+        let last = xs.len() - 2;
+        for k in -20..=340 {
+            let s = k as f64 * 0.1;
+            let expected = line
+                .vertices
+                .partition_point(|v| v.cum <= s)
+                .saturating_sub(1)
+                .min(last);
+            assert_eq!(line.segment_at(s), expected, "s = {s}");
+        }
+    }
 
     #[test]
     fn angle_between_takes_the_short_way_round() {

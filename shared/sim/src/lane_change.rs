@@ -160,4 +160,5 @@ pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
     v.lane_change = None;
     v.path_length += net.lane(target).length() - old;
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
+    v.turn_signal = crate::visualization::turn_signal(net, v);
 }

@@ -100,7 +100,11 @@ impl ChunkItems {
         blocked.clear();
         for &(lane, occ) in items.iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
-                if occ.front >= c.a0 && occ.rear <= c.a1 {
+                // Sorted by zone start: the rest lie beyond the front.
+                if c.a0 > occ.front {
+                    break;
+                }
+                if occ.rear <= c.a1 {
                     blocked.push((
                         c.other,
                         BlockedZone {

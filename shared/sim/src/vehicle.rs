@@ -74,57 +74,64 @@ pub struct TripStats {
     pub stopped: bool,
 }
 
+/// `repr(C)` with the fields every pass of a tick reads first: a tick touches
+/// every vehicle several times, and at 10,000 vehicles the lines it touches,
+/// not the instructions, set the pace.
 #[derive(Clone, Debug)]
+#[repr(C)]
 pub struct Vehicle {
-    pub id: VehicleId,
-    /// Index into the network's vehicle kinds.
-    pub kind: usize,
-    /// Origin (rear axle) to front bumper, length and width, metres.
-    pub front_offset: f64,
-    pub length: f64,
-    pub width: f64,
-
+    // Read by every pass (lane following, lane index, cognition, motion).
     /// followingLanes: element 0 is the lane the front bumper is on.
     pub path: Vec<LaneId>,
-    /// The lane before path[0], where the rear may still be.
-    pub prev_lane: Option<LaneId>,
-    /// Summed length of the lanes in `path`.
-    pub path_length: f64,
-    pub first_junction_lane: Option<FirstJunctionLane>,
     /// Arc length of the front bumper along path[0].
     pub s: f64,
     pub speed: f64,
-    pub acceleration: f64,
-    pub route: Option<RouteProgress>,
-
-    // Cognition outputs.
-    pub is_turning: bool,
-    pub distance_to_front: f64,
-    pub light_lane: Option<LaneId>,
-    /// Along-path metres from the front bumper to the light lane's stop line.
-    pub distance_to_light: f64,
-    pub passability: LightColor,
-    pub yield_lane: Option<LaneId>,
-    pub yield_phase: YieldPhase,
-    pub yield_point: DVec2,
-    pub dominating: Option<VehicleId>,
-    /// Set by deadlock breaking: ignore lane rules while entering this junction.
-    pub forced_through: Option<u32>,
+    /// Origin (rear axle) to front bumper, length and width, metres.
+    pub length: f64,
+    pub width: f64,
+    /// Summed length of the lanes in `path`.
+    pub path_length: f64,
+    /// The lane before path[0], where the rear may still be.
+    pub prev_lane: Option<LaneId>,
     /// The lane beside path[0] that the route goes on from (a lane change it
     /// needs), kept up to date as the path changes.
     pub lane_change: Option<LaneId>,
-    pub zebra: ZebraState,
-
-    // Decision and control outputs.
+    /// Set by deadlock breaking: ignore lane rules while entering this junction.
+    pub forced_through: Option<u32>,
+    pub should_despawn: bool,
+    pub passability: LightColor,
+    pub yield_phase: YieldPhase,
     pub speed_mode: SpeedMode,
-    pub pose: Pose,
+    pub is_turning: bool,
+    pub distance_to_front: f64,
+    /// Along-path metres from the front bumper to the light lane's stop line.
+    pub distance_to_light: f64,
+    pub first_junction_lane: Option<FirstJunctionLane>,
     pub front: DVec2,
-    pub back: DVec2,
     /// Unit vector of `pose.yaw`.
     pub heading: DVec2,
+    pub back: DVec2,
+    pub front_offset: f64,
+    /// (path[0], s) when the pose was last computed; NaN before the first.
+    pub pose_at: (LaneId, f64),
+
+    // The rest of cognition's outputs.
+    pub light_lane: Option<LaneId>,
+    pub yield_lane: Option<LaneId>,
+    pub yield_point: DVec2,
+    pub dominating: Option<VehicleId>,
+    pub zebra: ZebraState,
+
+    // Control and Visualization outputs.
+    pub acceleration: f64,
+    pub pose: Pose,
     pub turn_signal: TurnSignal,
 
-    pub should_despawn: bool,
+    // Read on spawn, branch choices and despawn only.
+    pub id: VehicleId,
+    /// Index into the network's vehicle kinds.
+    pub kind: usize,
+    pub route: Option<RouteProgress>,
     pub despawn_reason: Option<crate::events::DespawnReason>,
     pub rng: SimRng,
     pub trip: TripStats,

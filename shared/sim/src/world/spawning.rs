@@ -217,6 +217,7 @@ impl World {
             zebra: ZebraState::default(),
             speed_mode: Default::default(),
             pose: Pose::default(),
+            pose_at: (LaneId::MAX, f64::NAN),
             front: DVec2::ZERO,
             back: DVec2::ZERO,
             heading: DVec2::X,

@@ -81,7 +81,6 @@ impl World {
                 v.speed_mode = decide(v, config);
                 step_speed(net, v, config, dt);
                 update_pose(net, v);
-                v.turn_signal = turn_signal(net, v);
                 update_trip(v, dt);
             });
         self.phase_times.lap(Phase::Motion);
@@ -107,9 +106,11 @@ impl World {
                 }
                 let before = (v.path[0], v.path.get(1).copied());
                 advance_and_extend(net, policy, v, motion, &mut made);
-                // The lane change depends on the first two lanes only.
+                // The lane change and the turn signal depend on the first two
+                // lanes only.
                 if before != (v.path[0], v.path.get(1).copied()) {
                     v.lane_change = lane_change::pending_target(net, v);
+                    v.turn_signal = turn_signal(net, v);
                 }
                 if v.should_despawn && v.despawn_reason.is_none() {
                     v.despawn_reason = Some(DespawnReason::DeadEnd);
