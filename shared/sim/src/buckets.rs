@@ -63,8 +63,12 @@ impl<T: Copy> Buckets<T> {
             *range = (start, start);
             start += count;
         }
+        // Sized with any item (each slot is overwritten below): cheaper than
+        // copying the items in only to scatter them again.
         self.items.clear();
-        self.items.extend(all().map(|(_, item)| *item));
+        if let Some(&(_, any)) = all().next() {
+            self.items.resize(start as usize, any);
+        }
         for &(key, item) in all() {
             let range = &mut self.ranges[key as usize];
             self.items[range.1 as usize] = item;
@@ -78,12 +82,41 @@ impl<T: Copy> Buckets<T> {
     }
 
     /// Sorts the items of every key holding more than one.
-    pub fn sort_each_by(&mut self, mut compare: impl FnMut(&T, &T) -> std::cmp::Ordering) {
-        for &key in &self.keys {
-            let (a, b) = self.ranges[key as usize];
-            if b - a > 1 {
-                self.items[a as usize..b as usize].sort_unstable_by(&mut compare);
-            }
+    pub fn sort_each_by(&mut self, compare: impl Fn(&T, &T) -> std::cmp::Ordering) {
+        sort_keys(&self.ranges, &self.keys, &mut self.items, 0, &compare);
+    }
+}
+
+impl<T: Copy + Send> Buckets<T> {
+    /// [`Buckets::sort_each_by`] on two threads: the keys' items lie in the
+    /// order of the keys, so the two halves of the keys own disjoint halves of
+    /// the items.
+    pub fn par_sort_each_by(&mut self, compare: impl Fn(&T, &T) -> std::cmp::Ordering + Sync) {
+        let (low_keys, high_keys) = self.keys.split_at(self.keys.len() / 2);
+        let split = high_keys
+            .first()
+            .map_or(self.items.len(), |&k| self.ranges[k as usize].0 as usize);
+        let (low, high) = self.items.split_at_mut(split);
+        let ranges = &self.ranges;
+        rayon::join(
+            || sort_keys(ranges, low_keys, low, 0, &compare),
+            || sort_keys(ranges, high_keys, high, split, &compare),
+        );
+    }
+}
+
+/// Sorts the items of `keys` within `items`, whose first element is item `first`.
+fn sort_keys<T>(
+    ranges: &[(u32, u32)],
+    keys: &[u32],
+    items: &mut [T],
+    first: usize,
+    compare: &impl Fn(&T, &T) -> std::cmp::Ordering,
+) {
+    for &key in keys {
+        let (a, b) = ranges[key as usize];
+        if b - a > 1 {
+            items[a as usize - first..b as usize - first].sort_unstable_by(compare);
         }
     }
 }
@@ -106,6 +139,14 @@ mod tests {
         assert_eq!(b.get(1), &['x', 'y']);
         b.sort_each_by(|a, b| b.cmp(a));
         assert_eq!(b.get(1), &['y', 'x']);
+        b.rebuild(
+            3,
+            &[(2, 'p'), (0, 'c'), (2, 'q'), (0, 'a'), (1, 'z'), (0, 'b')],
+        );
+        b.par_sort_each_by(|a, b| a.cmp(b));
+        assert_eq!(b.get(0), &['a', 'b', 'c']);
+        assert_eq!(b.get(1), &['z']);
+        assert_eq!(b.get(2), &['p', 'q']);
         b.rebuild(2, &[(0, 'z')]);
         assert_eq!(b.get(0), &['z']);
         assert_eq!(b.get(1), &[] as &[char]);

@@ -156,17 +156,20 @@ impl LaneIndex {
             chunks.iter().map(|c| c.occupants.as_slice()).collect();
         let blocked_parts: Vec<&[(LaneId, BlockedZone)]> =
             chunks.iter().map(|c| c.blocked.as_slice()).collect();
-        let mut sort_occupants = || {
-            occupants.rebuild_from_parts(lanes, &occupant_parts);
-            occupants
-                .sort_each_by(|a, b| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle)));
-        };
-        let mut group_blocked = || blocked.rebuild_from_parts(lanes, &blocked_parts);
+        let by_rear =
+            |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle));
         if chunk_count > 1 {
-            rayon::join(sort_occupants, group_blocked);
+            rayon::join(
+                || {
+                    occupants.rebuild_from_parts(lanes, &occupant_parts);
+                    occupants.par_sort_each_by(by_rear);
+                },
+                || blocked.rebuild_from_parts(lanes, &blocked_parts),
+            );
         } else {
-            sort_occupants();
-            group_blocked();
+            occupants.rebuild_from_parts(lanes, &occupant_parts);
+            occupants.sort_each_by(by_rear);
+            blocked.rebuild_from_parts(lanes, &blocked_parts);
         }
     }
 
