@@ -97,7 +97,7 @@ struct Ctx<'a, 'b> {
     snap: &'a Snapshot<'b>,
     i: usize,
     v: &'a Vehicle,
-    info: RowInfo,
+    info: &'a RowInfo,
     candidates: &'a [u32],
     yield_lane: Option<LaneId>,
 }
@@ -107,9 +107,9 @@ type Hit = Option<(Option<VehicleId>, DVec2)>;
 
 pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
-    let info = snap.row[i];
+    let info = &snap.row[i];
     let candidates = snap.junctions.of(info.junction);
-    let yield_lane = current_yield_lane(snap, v, &info);
+    let yield_lane = current_yield_lane(snap, v, info);
     let ctx = Ctx {
         snap,
         i,
@@ -147,10 +147,13 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let on = info.on_intersection;
     match v.yield_phase {
         YieldPhase::None => {
-            let yield_lane = info
-                .first_int
-                .map(|(_, l)| l)
-                .filter(|&l| !snap.net.lane(l).right_of_way.is_empty());
+            // Read only for the vehicles near a junction: the lane's rule list
+            // lies on a line of its own.
+            let yield_lane = || {
+                info.first_int
+                    .map(|(_, l)| l)
+                    .filter(|&l| !snap.net.lane(l).right_of_way.is_empty())
+            };
             if info.considered && !on {
                 let (_, lane) = info
                     .first_int
@@ -158,14 +161,14 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
                 RowDecision {
                     phase: YieldPhase::EnteringIntersection,
                     point: snap.net.lane(lane).stop_point(0),
-                    lane: yield_lane,
+                    lane: yield_lane(),
                     dominating: None,
                 }
             } else if on {
                 RowDecision {
                     phase: YieldPhase::AtIntersection,
                     point: v.yield_point,
-                    lane: yield_lane,
+                    lane: yield_lane(),
                     dominating: None,
                 }
             } else {
@@ -368,7 +371,7 @@ impl Ctx<'_, '_> {
                     && !o.yield_phase.is_yielding_due_to_rules()
                     && !self.same_side(oi)
                     && self.on_right(o)
-                    && !self.has_priority(oi, &self.info)
+                    && !self.has_priority(oi, self.info)
                     && self.intersect_now_front(o, oi)
             })
             .map(|(o, _)| (Some(o.id), self.v.front))
@@ -395,7 +398,7 @@ impl Ctx<'_, '_> {
             .find(|(o, oi)| {
                 !o.yield_phase.is_yielding_due_to_rules()
                     && !oi.waiting_at_red
-                    && self.has_priority(&self.info, oi)
+                    && self.has_priority(self.info, oi)
                     && if self.info.on_intersection && oi.on_intersection {
                         self.intersect_now_front(o, oi)
                     } else {
