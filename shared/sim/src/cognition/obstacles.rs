@@ -10,7 +10,7 @@ use super::path::{lanes_ahead, needed_lookahead};
 use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
-use crate::network::LaneNetwork;
+use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::Vehicle;
 
 /// A stopped vehicle this close to the start of a junction's exit lane leaves no
@@ -53,24 +53,23 @@ impl FrontObstacle {
 pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     let v = &snap.vehicles[i];
     let net = snap.net;
-    let range = needed_lookahead(v.speed, snap.config);
+    let search = Search {
+        snap,
+        i,
+        v,
+        range: needed_lookahead(v.speed, snap.config),
+    };
     let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
     for (k, lane, offset) in lanes_ahead(net, v) {
-        if offset > range || offset > best.distance {
+        if offset > search.range || offset > best.distance {
             break;
         }
-        best = best.nearer(leader_on_lane(snap, i, lane, offset));
-        best = best.nearer(conflicting_bodies(
-            snap,
-            i,
-            lane,
-            offset,
-            range,
-            best.distance,
-        ));
+        let ahead = LaneAhead { lane, offset };
+        best = best.nearer(search.leader_on(ahead));
+        best = best.nearer(search.conflicting_bodies(ahead, best.distance));
         if net.lane(lane).road_conflicts {
-            best = best.nearer(nearer_claimant(snap, i, lane, offset, range, best.distance));
+            best = best.nearer(search.nearer_claimant(ahead, best.distance));
         }
         if k >= 1
             && !on_intersection
@@ -91,133 +90,147 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         ));
     }
     if let Some(ego) = snap.ego {
-        best = best.nearer(FrontObstacle::clear_to(ego_distance(net, v, ego, range)));
+        best = best.nearer(FrontObstacle::clear_to(ego_distance(
+            net,
+            v,
+            ego,
+            search.range,
+        )));
     }
     best
 }
 
-/// The nearest vehicle ahead on `lane` whose body is ahead of ours.
-fn leader_on_lane(snap: &Snapshot, i: usize, lane: u32, offset: f64) -> FrontObstacle {
-    let v = &snap.vehicles[i];
-    let occupants = snap.index.on_lane(lane);
-    // Sorted by rear: skip every body whose rear is behind ours.
-    let first = occupants.partition_point(|o| offset + o.rear <= -v.length);
-    for occ in &occupants[first..] {
-        if occ.vehicle as usize == i {
-            continue;
-        }
-        let rear = offset + occ.rear;
-        let front = offset + occ.front;
-        // A vehicle waiting to change onto this lane is given room by those
-        // who can still stop before it; one already beside it drives on.
-        if occ.ghost && rear < ghost_room(v.speed, snap.config) {
-            continue;
-        }
-        if rear > -v.length && front > 0.0 {
-            return FrontObstacle {
-                distance: rear.max(0.0),
-                vehicle: Some(occ.vehicle),
-            };
-        }
-    }
-    FrontObstacle::NONE
-}
-
-/// Bodies standing in the conflict zones of `lane` ahead of us, nearer than `best`.
-fn conflicting_bodies(
-    snap: &Snapshot,
-    i: usize,
-    lane: u32,
+/// A lane of the path and the along-path metres from our front bumper to its
+/// start (negative for the lane we are on).
+#[derive(Clone, Copy)]
+struct LaneAhead {
+    lane: LaneId,
     offset: f64,
-    range: f64,
-    best: f64,
-) -> FrontObstacle {
-    let v = &snap.vehicles[i];
-    let mut nearest = FrontObstacle::clear_to(best);
-    for z in snap.index.blocked_zones(lane) {
-        let zone_start = offset + z.start;
-        if offset + z.end <= 0.0
-            || zone_start > range
-            || zone_start >= nearest.distance
-            || z.vehicle as usize == i
-            // A junction lane of our own path: its bodies are our leaders. A road
-            // conflict with our own path is a tight loop: the body is in the way.
-            || (!z.road && v.path.contains(&z.source))
-            || z.passable(v.width)
-        {
-            continue;
-        }
-        let d = match z.parallel_rear {
-            // Merge or diverge: where the other's rear lies along our lane.
-            Some(rear) => offset + rear,
-            // Already inside a crossing: committed; the crossing vehicle waits for us.
-            None if zone_start <= 0.0 => continue,
-            None => zone_start,
-        };
-        if d > 0.0 && d < nearest.distance {
-            nearest = FrontObstacle {
-                distance: d,
-                vehicle: Some(z.vehicle),
-            };
-        }
-    }
-    nearest
 }
 
-/// Road conflicts of `lane` ahead (no right of way covers them): the vehicle
-/// nearer the zone goes first, so we stop before a zone that another vehicle,
-/// nearer to it and held by nothing before it, is about to enter.
-fn nearer_claimant(
-    snap: &Snapshot,
+/// The front-obstacle search of vehicle `i`, out to `range` metres.
+struct Search<'a, 'b> {
+    snap: &'a Snapshot<'b>,
     i: usize,
-    lane: u32,
-    offset: f64,
+    v: &'a Vehicle,
     range: f64,
-    best: f64,
-) -> FrontObstacle {
-    let mut nearest = FrontObstacle::clear_to(best);
-    for c in snap.net.lane(lane).conflicts.iter().filter(|c| c.road) {
-        let ours = offset + c.a0;
-        if ours > range || ours >= nearest.distance {
-            // Sorted by zone start: the rest lie further.
-            break;
-        }
-        // Inside the zone already: committed, the other waits for our body.
-        if ours <= 0.0 {
-            continue;
-        }
-        if let Some(other) = claimant(snap, i, c, ours) {
-            nearest = FrontObstacle {
-                distance: ours,
-                vehicle: Some(other),
-            };
-        }
-    }
-    nearest
 }
 
-/// A vehicle on the other lane of conflict `c`, or on a lane just before it,
-/// that will reach the zone before us: too wide to pass us there, its front
-/// nearer to the zone than ours (`ours` metres; equally near, the lower index
-/// goes first), and neither an obstacle nor a red light stops it before.
-fn claimant(snap: &Snapshot, i: usize, c: &Conflict, ours: f64) -> Option<u32> {
-    let (lane, zone) = (c.other, c.b0);
-    let width = snap.vehicles[i].width;
-    snap.index
-        .on_lane_or_before(snap.net, lane)
-        .find_map(|(o, front)| {
-            let to_zone = zone - front;
-            let nearer = to_zone < ours || (to_zone == ours && (o.vehicle as usize) < i);
-            if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
-                return None;
+impl Search<'_, '_> {
+    /// The nearest vehicle ahead on the lane whose body is ahead of ours.
+    fn leader_on(&self, LaneAhead { lane, offset }: LaneAhead) -> FrontObstacle {
+        let v = self.v;
+        let occupants = self.snap.index.on_lane(lane);
+        // Sorted by rear: skip every body whose rear is behind ours.
+        let first = occupants.partition_point(|o| offset + o.rear <= -v.length);
+        for occ in &occupants[first..] {
+            if occ.vehicle as usize == self.i {
+                continue;
             }
-            let w = &snap.vehicles[o.vehicle as usize];
-            let passes_us = (width + w.width) * 0.5 < c.room;
-            let held = w.distance_to_front < to_zone
-                || (w.passability == LightColor::Red && w.distance_to_light < to_zone);
-            let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
-            (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
-        })
+            let rear = offset + occ.rear;
+            let front = offset + occ.front;
+            // A vehicle waiting to change onto this lane is given room by those
+            // who can still stop before it; one already beside it drives on.
+            if occ.ghost && rear < ghost_room(v.speed, self.snap.config) {
+                continue;
+            }
+            if rear > -v.length && front > 0.0 {
+                return FrontObstacle {
+                    distance: rear.max(0.0),
+                    vehicle: Some(occ.vehicle),
+                };
+            }
+        }
+        FrontObstacle::NONE
+    }
+
+    /// Bodies standing in the conflict zones of the lane, nearer than `best`.
+    fn conflicting_bodies(
+        &self,
+        LaneAhead { lane, offset }: LaneAhead,
+        best: f64,
+    ) -> FrontObstacle {
+        let v = self.v;
+        let mut nearest = FrontObstacle::clear_to(best);
+        for z in self.snap.index.blocked_zones(lane) {
+            let zone_start = offset + z.start;
+            if offset + z.end <= 0.0
+                || zone_start > self.range
+                || zone_start >= nearest.distance
+                || z.vehicle as usize == self.i
+                // A junction lane of our own path: its bodies are our leaders. A road
+                // conflict with our own path is a tight loop: the body is in the way.
+                || (!z.road && v.path.contains(&z.source))
+                || z.passable(v.width)
+            {
+                continue;
+            }
+            let d = match z.parallel_rear {
+                // Merge or diverge: where the other's rear lies along our lane.
+                Some(rear) => offset + rear,
+                // Already inside a crossing: committed; the crossing vehicle waits for us.
+                None if zone_start <= 0.0 => continue,
+                None => zone_start,
+            };
+            if d > 0.0 && d < nearest.distance {
+                nearest = FrontObstacle {
+                    distance: d,
+                    vehicle: Some(z.vehicle),
+                };
+            }
+        }
+        nearest
+    }
+
+    /// Road conflicts of the lane (no right of way covers them): the vehicle
+    /// nearer the zone goes first, so we stop before a zone that another
+    /// vehicle, nearer to it and held by nothing before it, is about to enter.
+    fn nearer_claimant(&self, LaneAhead { lane, offset }: LaneAhead, best: f64) -> FrontObstacle {
+        let mut nearest = FrontObstacle::clear_to(best);
+        for c in self.snap.net.lane(lane).conflicts.iter().filter(|c| c.road) {
+            let ours = offset + c.a0;
+            if ours > self.range || ours >= nearest.distance {
+                // Sorted by zone start: the rest lie further.
+                break;
+            }
+            // Inside the zone already: committed, the other waits for our body.
+            if ours <= 0.0 {
+                continue;
+            }
+            if let Some(other) = self.claimant(c, ours) {
+                nearest = FrontObstacle {
+                    distance: ours,
+                    vehicle: Some(other),
+                };
+            }
+        }
+        nearest
+    }
+
+    /// A vehicle on the other lane of conflict `c`, or on a lane just before
+    /// it, that will reach the zone before us: too wide to pass us there, its
+    /// front nearer to the zone than ours (`ours` metres; equally near, the
+    /// lower index goes first), and neither an obstacle nor a red light stops
+    /// it before.
+    fn claimant(&self, c: &Conflict, ours: f64) -> Option<u32> {
+        let (snap, i) = (self.snap, self.i);
+        let (lane, zone) = (c.other, c.b0);
+        snap.index
+            .on_lane_or_before(snap.net, lane)
+            .find_map(|(o, front)| {
+                let to_zone = zone - front;
+                let nearer = to_zone < ours || (to_zone == ours && (o.vehicle as usize) < i);
+                if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
+                    return None;
+                }
+                let w = &snap.vehicles[o.vehicle as usize];
+                let passes_us = (self.v.width + w.width) * 0.5 < c.room;
+                let held = w.distance_to_front < to_zone
+                    || (w.passability == LightColor::Red && w.distance_to_light < to_zone);
+                let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
+                (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
+            })
+    }
 }
 
 /// How far ahead a lane-change ghost must be for a vehicle to stop for it: where

@@ -13,7 +13,7 @@ use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
 use crate::network::LaneNetwork;
-use crate::vehicle::Vehicle;
+use crate::vehicle::{Vehicle, VehicleId};
 use crate::visualization::{turn_signal, update_trip};
 
 pub(super) fn trip_record(
@@ -95,15 +95,17 @@ impl World {
     fn follow_lanes(&mut self) {
         let (net, policy) = (&self.net, &self.branch_policy);
         let motion = &self.config.vehicle;
-        let decisions: Vec<Vec<BranchChoice>> = self
+        // Only the vehicles that made a choice come back (in vehicle order), so
+        // the serial recording below costs the choices, not the vehicles.
+        let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
             .par_iter_mut()
             .with_min_len(MIN_VEHICLES_PER_TASK)
-            .map(|v| {
-                let mut made = Vec::new();
+            .filter_map(|v| {
                 if v.should_despawn {
-                    return made;
+                    return None;
                 }
+                let mut made = Vec::new();
                 let before = (v.path[0], v.path.get(1).copied());
                 advance_and_extend(net, policy, v, motion, &mut made);
                 // The lane change and the turn signal depend on the first two
@@ -121,16 +123,13 @@ impl World {
                 {
                     v.forced_through = None;
                 }
-                made
+                (!made.is_empty()).then_some((v.id, made))
             })
             .collect();
-        for (v, made) in self.vehicles.iter().zip(&decisions) {
+        for (id, made) in decisions {
             for choice in made {
-                self.branch_stats.record(choice);
-                self.events.push(SimEvent::BranchDecision {
-                    id: v.id,
-                    choice: *choice,
-                });
+                self.branch_stats.record(&choice);
+                self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }
     }
