@@ -112,3 +112,20 @@ fn two_vehicles_that_each_want_the_others_lane_swap() {
     assert_eq!(seen[0], ["a0", "a1", "j1", "x1"]);
     assert_eq!(seen[1], ["a1", "a0", "j0", "x0"]);
 }
+
+#[test]
+fn a_vehicle_that_changes_lanes_standing_still_is_drawn_on_its_new_lane() {
+    let mut w = world(&two_lane_road(), WorldConfig::default());
+    let id = w.place_vehicle("Taxi", "a0", 100.0, 0.0).unwrap();
+    let net = w.network();
+    let mut v = vehicle(&w, id).clone();
+    assert_eq!(v.speed, 0.0);
+    assert!(v.front.y.abs() < 1e-9, "placed on a0 (y = 0)");
+    // The move across, then a tick's pose update with the position unchanged.
+    trafficmesh_sim::lane_change::apply(net, &mut v, net.lane_id("a1").unwrap());
+    trafficmesh_sim::control::update_pose(net, &mut v);
+    // a1 runs along y = 3.2: the pose and both bumpers follow it.
+    for (what, y) in [("pose", v.pose.y), ("front", v.front.y), ("back", v.back.y)] {
+        assert!((y - 3.2).abs() < 1e-9, "{what} at y = {y}, not on a1");
+    }
+}
