@@ -6,7 +6,6 @@
 //! until the released one has crossed its path. A cycle of bodies alone has
 //! nobody a rule could release.
 
-use rayon::prelude::*;
 use trafficmesh_model::YieldPhase;
 
 use super::Perception;
@@ -14,36 +13,38 @@ use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
 const STOPPED_SPEED: f64 = 0.05;
-const NOBODY: u32 = u32::MAX;
+pub const NOBODY: u32 = u32::MAX;
+
+/// The vehicle `v` is stopped waiting for this tick (an index; [`NOBODY`] if
+/// none), and whether a rule rather than a body holds it. Taken while each
+/// perception is made, so that deadlock breaking needs no pass of its own over
+/// the vehicles (they are sorted by id).
+pub fn wait_of(vehicles: &[Vehicle], v: &Vehicle, p: &Perception) -> Wait {
+    if v.speed >= STOPPED_SPEED {
+        return (NOBODY, false);
+    }
+    if p.yield_phase.is_yielding() {
+        let rule = p
+            .dominating
+            .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok());
+        return rule.map_or((NOBODY, false), |i| (i as u32, true));
+    }
+    (p.front_vehicle.unwrap_or(NOBODY), false)
+}
+
+/// Whom a vehicle waits for, and whether a rule holds it: see [`wait_of`].
+pub type Wait = (u32, bool);
 
 /// Finds every waiting cycle in this tick's perceptions and breaks it, before
-/// they are applied. Each vehicle waits for at most one other, so the graph is a
-/// set of chains ending in cycles: one pass finds them all. Returns the number
-/// of cycles broken.
+/// they are applied. Each vehicle waits for at most one other (`waits`, from
+/// [`wait_of`]), so the graph is a set of chains ending in cycles: one pass
+/// finds them all. Returns the number of cycles broken.
 pub fn break_cycles(
     net: &LaneNetwork,
     vehicles: &[Vehicle],
+    waits: &[Wait],
     perceptions: &mut [Perception],
 ) -> usize {
-    // Index of the vehicle each one is stopped waiting for, and whether a rule
-    // (rather than a body) holds it (vehicles are sorted by id).
-    let waits: Vec<(u32, bool)> = vehicles
-        .par_iter()
-        .zip(perceptions.par_iter())
-        .with_min_len(crate::world::MIN_VEHICLES_PER_TASK)
-        .map(|(v, p)| {
-            if v.speed >= STOPPED_SPEED {
-                return (NOBODY, false);
-            }
-            if p.yield_phase.is_yielding() {
-                let rule = p
-                    .dominating
-                    .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok());
-                return rule.map_or((NOBODY, false), |i| (i as u32, true));
-            }
-            (p.front_vehicle.unwrap_or(NOBODY), false)
-        })
-        .collect();
     let n = vehicles.len();
     let mut walk_of = vec![NOBODY; n];
     let mut releases: Vec<(usize, usize)> = Vec::new();

@@ -62,9 +62,9 @@ impl World {
         }
         self.phase_times.lap(Phase::LaneChanges);
 
-        let mut perceptions = self.cognition();
+        let (mut perceptions, waits) = self.cognition();
         self.phase_times.lap(Phase::Cognition);
-        deadlock::break_cycles(&self.net, &self.vehicles, &mut perceptions);
+        deadlock::break_cycles(&self.net, &self.vehicles, &waits, &mut perceptions);
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
@@ -172,8 +172,9 @@ impl World {
         !moved.is_empty()
     }
 
-    /// Parallel perception of every vehicle from the same snapshot.
-    fn cognition(&self) -> Vec<Perception> {
+    /// Parallel perception of every vehicle from the same snapshot, with whom
+    /// each is waiting for (for deadlock breaking).
+    fn cognition(&self) -> (Vec<Perception>, Vec<deadlock::Wait>) {
         let net = &self.net;
         let row: Vec<RowInfo> = self
             .vehicles
@@ -196,8 +197,11 @@ impl World {
         (0..self.vehicles.len())
             .into_par_iter()
             .with_min_len(MIN_VEHICLES_PER_TASK)
-            .map(|i| perceive(&snap, i))
-            .collect()
+            .map(|i| {
+                let p = perceive(&snap, i);
+                (p, deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p))
+            })
+            .unzip()
     }
 
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
