@@ -194,14 +194,20 @@ impl World {
             row: &row,
             junctions: &junctions,
         };
-        (0..self.vehicles.len())
-            .into_par_iter()
+        // The waits are written beside, not paired with, the perceptions: a
+        // pair would copy each perception twice more.
+        let mut waits = vec![(deadlock::NOBODY, false); self.vehicles.len()];
+        let perceptions = waits
+            .par_iter_mut()
+            .enumerate()
             .with_min_len(MIN_VEHICLES_PER_TASK)
-            .map(|i| {
+            .map(|(i, wait)| {
                 let p = perceive(&snap, i);
-                (p, deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p))
+                *wait = deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p);
+                p
             })
-            .unzip()
+            .collect();
+        (perceptions, waits)
     }
 
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
