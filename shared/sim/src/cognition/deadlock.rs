@@ -13,6 +13,7 @@ use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
 const STOPPED_SPEED: f64 = 0.05;
+/// No vehicle: the wait of one that waits for nobody.
 pub const NOBODY: u32 = u32::MAX;
 
 /// The vehicle `v` is stopped waiting for this tick (an index; [`NOBODY`] if
