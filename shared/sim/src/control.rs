@@ -55,7 +55,7 @@ pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: 
 /// next lane; the origin (rear axle) lies on that chord.
 ///
 /// The pose is a function of the lane and arc position alone, so a vehicle
-/// standing where it stood last tick (a third of them in dense traffic) keeps it.
+/// standing where it stood last tick (queued, or held at a light) keeps it.
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
     let at = (v.path[0], v.s);
     if v.pose_at == at {

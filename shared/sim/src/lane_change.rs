@@ -16,6 +16,14 @@ use crate::vehicle::Vehicle;
 /// apart, metres.
 const SIBLING_TOLERANCE: f64 = 12.0;
 
+/// What follows from the first two lanes of the path, kept up to date by
+/// whatever changes them (lane following, a lane change): the lane change they
+/// need and the turn signal they show.
+pub fn refresh_first_lanes(net: &LaneNetwork, v: &mut Vehicle) {
+    v.lane_change = pending_target(net, v);
+    v.turn_signal = crate::visualization::turn_signal(net, v);
+}
+
 /// The lane the vehicle must move to: when path[1] does not follow path[0],
 /// the sibling of path[0] that leads to it.
 pub fn pending_target(net: &LaneNetwork, v: &Vehicle) -> Option<LaneId> {
@@ -157,8 +165,8 @@ pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, config: &NpcVehicl
 pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
     let old = net.lane(v.path[0]).length();
     v.path[0] = target;
-    v.lane_change = None;
     v.path_length += net.lane(target).length() - old;
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
-    v.turn_signal = crate::visualization::turn_signal(net, v);
+    // The target leads to path[1]: no further change is pending.
+    refresh_first_lanes(net, v);
 }

@@ -9,7 +9,8 @@ use crate::vehicle::Vehicle;
 pub const STOPPED_SPEED: f64 = 0.03;
 
 /// The current lane's turn, else the next lane's; kept when only one lane is known.
-/// A function of the first two path lanes: recomputed when they change.
+/// A function of the first two path lanes: kept up to date by
+/// [`crate::lane_change::refresh_first_lanes`].
 pub fn turn_signal(net: &LaneNetwork, v: &Vehicle) -> TurnSignal {
     if v.path.len() < 2 {
         return v.turn_signal;

@@ -14,7 +14,7 @@ use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
 use crate::network::LaneNetwork;
 use crate::vehicle::{Vehicle, VehicleId};
-use crate::visualization::{turn_signal, update_trip};
+use crate::visualization::update_trip;
 
 pub(super) fn trip_record(
     net: &LaneNetwork,
@@ -108,11 +108,8 @@ impl World {
                 let mut made = Vec::new();
                 let before = (v.path[0], v.path.get(1).copied());
                 advance_and_extend(net, policy, v, motion, &mut made);
-                // The lane change and the turn signal depend on the first two
-                // lanes only.
                 if before != (v.path[0], v.path.get(1).copied()) {
-                    v.lane_change = lane_change::pending_target(net, v);
-                    v.turn_signal = turn_signal(net, v);
+                    lane_change::refresh_first_lanes(net, v);
                 }
                 if v.should_despawn && v.despawn_reason.is_none() {
                     v.despawn_reason = Some(DespawnReason::DeadEnd);
