@@ -66,11 +66,18 @@ pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
     let (back, z_back) = point_on_path(net, v, -v.length);
     let body = front - back;
     let length = body.length();
+    let before = v.heading;
     if length > 1e-6 {
         v.heading = body / length;
     }
     let axle = front - v.heading * v.front_offset;
-    let yaw = v.heading.y.atan2(v.heading.x);
+    // The yaw is the heading's angle: the same heading (a body moving along
+    // a straight lane) has the same yaw without another atan2.
+    let yaw = if v.heading == before {
+        v.pose.yaw
+    } else {
+        v.heading.y.atan2(v.heading.x)
+    };
     v.pose = Pose {
         x: axle.x,
         y: axle.y,

@@ -245,8 +245,7 @@ fn ghost_room(speed: f64, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
 fn exit_blocked_by(snap: &Snapshot, v: &Vehicle, k: usize) -> Option<u32> {
     let exit = *v.path.get(k + 1)?;
     let occ = snap.index.on_lane(exit).first()?;
-    let room = occ.rear >= v.length + EXIT_ROOM_MARGIN
-        || snap.vehicles[occ.vehicle as usize].speed >= EXIT_MOVING_SPEED;
+    let room = occ.rear >= v.length + EXIT_ROOM_MARGIN || occ.speed >= EXIT_MOVING_SPEED;
     (!room).then_some(occ.vehicle)
 }
 

@@ -11,6 +11,7 @@ use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
 use crate::branching::{BranchPolicy, BranchStats};
+use crate::cognition::right_of_way::RowInfo;
 use crate::crosswalk::{Occupancy, OccupancyChange, OccupantType};
 use crate::ego::Ego;
 use crate::events::{DespawnReason, SimEvent};
@@ -71,6 +72,9 @@ pub struct World {
     time: f64,
     ticks: u64,
     vehicles: Vec<Vehicle>,
+    /// What others' right of way reads about each vehicle this tick, taken
+    /// as it follows its lanes (kept for the allocation).
+    row: Vec<RowInfo>,
     index: LaneIndex,
     lights: Lights,
     occupancy: Occupancy,
@@ -99,6 +103,7 @@ impl World {
             time: 0.0,
             ticks: 0,
             vehicles: Vec::new(),
+            row: Vec::new(),
             index,
             lights,
             occupancy,

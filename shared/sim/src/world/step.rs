@@ -1,5 +1,7 @@
 //! One tick: spawn, Cognition, Decision, Control, Visualization, despawn.
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use rayon::prelude::*;
 
 use super::World;
@@ -12,7 +14,7 @@ use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
-use crate::network::LaneNetwork;
+use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
 use crate::visualization::update_trip;
 
@@ -53,7 +55,7 @@ impl World {
         self.phase_times.lap(Phase::Lights);
         self.spawn_phase();
         self.phase_times.lap(Phase::Spawn);
-        self.follow_lanes();
+        let any_flagged = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
         self.index.rebuild(&self.net, &self.vehicles);
         self.phase_times.lap(Phase::LaneIndex);
@@ -86,23 +88,33 @@ impl World {
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
         self.ticks += 1;
-        self.despawn_flagged();
+        if any_flagged {
+            self.despawn_flagged();
+        }
         self.phase_times.lap(Phase::Despawn);
     }
 
     /// Lane advance and branch choices: parallel (each vehicle draws from its own
-    /// random stream), then recorded in vehicle order.
-    fn follow_lanes(&mut self) {
+    /// random stream), then recorded in vehicle order. Takes each vehicle's
+    /// right-of-way facts in the same pass. Returns whether any vehicle is
+    /// flagged for despawn.
+    fn follow_lanes(&mut self) -> bool {
         let (net, policy) = (&self.net, &self.branch_policy);
         let motion = &self.config.vehicle;
+        let flagged = AtomicBool::new(false);
+        self.row.resize(self.vehicles.len(), RowInfo::default());
         // Only the vehicles that made a choice come back (in vehicle order), so
         // the serial recording below costs the choices, not the vehicles.
         let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
             .par_iter_mut()
+            .zip(self.row.par_iter_mut())
             .with_min_len(MIN_VEHICLES_PER_TASK)
-            .filter_map(|v| {
+            .filter_map(|(v, row)| {
                 if v.should_despawn {
+                    // Still perceived, and seen by others, this tick.
+                    *row = RowInfo::of(v);
+                    flagged.store(true, Ordering::Relaxed);
                     return None;
                 }
                 let mut made = Vec::new();
@@ -111,8 +123,11 @@ impl World {
                 if before != (v.path[0], v.path.get(1).copied()) {
                     lane_change::refresh_first_lanes(net, v);
                 }
-                if v.should_despawn && v.despawn_reason.is_none() {
-                    v.despawn_reason = Some(DespawnReason::DeadEnd);
+                if v.should_despawn {
+                    flagged.store(true, Ordering::Relaxed);
+                    if v.despawn_reason.is_none() {
+                        v.despawn_reason = Some(DespawnReason::DeadEnd);
+                    }
                 }
                 if v.forced_through.is_some()
                     && !net.lane(v.path[0]).intersection
@@ -120,6 +135,7 @@ impl World {
                 {
                     v.forced_through = None;
                 }
+                *row = RowInfo::of(v);
                 (!made.is_empty()).then_some((v.id, made))
             })
             .collect();
@@ -129,6 +145,7 @@ impl World {
                 self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }
+        flagged.into_inner()
     }
 
     /// The lane changes routes need, where there is a gap (or where two
@@ -136,12 +153,12 @@ impl World {
     /// against this tick's lane index, then made in vehicle order so that two
     /// vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
-        let motion = &self.config.vehicle;
+        let motion = self.config.vehicle;
         let (index, vehicles) = (&self.index, &self.vehicles);
         let candidates: Vec<lane_change::Change> = index
             .lane_changers()
             .iter()
-            .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, motion))
+            .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, &motion))
             .collect();
         if candidates.is_empty() {
             return false;
@@ -154,32 +171,33 @@ impl World {
                 continue;
             }
             let v = &self.vehicles[c.vehicle];
-            if !lane_change::clear_of(&moved, v, c.target, motion) {
+            if !lane_change::clear_of(&moved, v, c.target, &motion) {
                 continue;
             }
             moved.push(lane_change::Moved::of(v, c.target));
-            lane_change::apply(&self.net, &mut self.vehicles[c.vehicle], c.target);
+            self.change_lane(c.vehicle, c.target);
             changed[c.vehicle] = true;
             if let Some((j, their_target)) = c.swap_with {
                 moved.push(lane_change::Moved::of(&self.vehicles[j], their_target));
-                lane_change::apply(&self.net, &mut self.vehicles[j], their_target);
+                self.change_lane(j, their_target);
                 changed[j] = true;
             }
         }
         !moved.is_empty()
     }
 
+    /// Moves vehicle `i` onto `target`, with the right-of-way facts that follow.
+    fn change_lane(&mut self, i: usize, target: LaneId) {
+        lane_change::apply(&self.net, &mut self.vehicles[i], target);
+        self.row[i] = RowInfo::of(&self.vehicles[i]);
+    }
+
     /// Parallel perception of every vehicle from the same snapshot, with whom
     /// each is waiting for (for deadlock breaking).
     fn cognition(&self) -> (Vec<Perception>, Vec<deadlock::Wait>) {
         let net = &self.net;
-        let row: Vec<RowInfo> = self
-            .vehicles
-            .par_iter()
-            .with_min_len(MIN_VEHICLES_PER_TASK)
-            .map(RowInfo::of)
-            .collect();
-        let junctions = JunctionBuckets::build(net, &row);
+        let row = &self.row;
+        let junctions = JunctionBuckets::build(net, row);
         let snap = Snapshot {
             net,
             vehicles: &self.vehicles,
@@ -188,7 +206,7 @@ impl World {
             occupancy: &self.occupancy,
             ego: self.ego.as_ref(),
             config: &self.config.vehicle,
-            row: &row,
+            row,
             junctions: &junctions,
         };
         // The waits are written beside, not paired with, the perceptions: a
