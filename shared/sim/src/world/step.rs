@@ -113,7 +113,7 @@ impl World {
             .filter_map(|(v, row)| {
                 if v.should_despawn {
                     // Still perceived, and seen by others, this tick.
-                    *row = RowInfo::of(v);
+                    *row = RowInfo::of(net, v);
                     flagged.store(true, Ordering::Relaxed);
                     return None;
                 }
@@ -135,7 +135,7 @@ impl World {
                 {
                     v.forced_through = None;
                 }
-                *row = RowInfo::of(v);
+                *row = RowInfo::of(net, v);
                 (!made.is_empty()).then_some((v.id, made))
             })
             .collect();
@@ -189,7 +189,7 @@ impl World {
     /// Moves vehicle `i` onto `target`, with the right-of-way facts that follow.
     fn change_lane(&mut self, i: usize, target: LaneId) {
         lane_change::apply(&self.net, &mut self.vehicles[i], target);
-        self.row[i] = RowInfo::of(&self.vehicles[i]);
+        self.row[i] = RowInfo::of(&self.net, &self.vehicles[i]);
     }
 
     /// Parallel perception of every vehicle from the same snapshot, with whom
