@@ -37,7 +37,6 @@ impl<T: Copy> Buckets<T> {
 
     /// Regroups in place the items of `parts` taken one after the other.
     pub fn rebuild_from_parts<P: AsRef<[(u32, T)]>>(&mut self, key_count: usize, parts: &[P]) {
-        let all = || parts.iter().flat_map(|p| p.as_ref().iter());
         if self.ranges.len() == key_count {
             for &key in &self.keys {
                 self.ranges[key as usize] = (0, 0);
@@ -47,13 +46,16 @@ impl<T: Copy> Buckets<T> {
             self.ranges.resize(key_count, (0, 0));
         }
         self.keys.clear();
-        // Count into `.1`.
-        for &(key, _) in all() {
-            let range = &mut self.ranges[key as usize];
-            if range.1 == 0 {
-                self.keys.push(key);
+        // Count into `.1`. (Loops over the parts rather than a flat_map: this
+        // runs for every item every tick, and the nested loops compile tighter.)
+        for part in parts {
+            for &(key, _) in part.as_ref() {
+                let range = &mut self.ranges[key as usize];
+                if range.1 == 0 {
+                    self.keys.push(key);
+                }
+                range.1 += 1;
             }
-            range.1 += 1;
         }
         // Both ends at the key's start; `.1` is then the scatter cursor.
         let mut start = 0;
@@ -66,13 +68,15 @@ impl<T: Copy> Buckets<T> {
         // Sized with any item (each slot is overwritten below): cheaper than
         // copying the items in only to scatter them again.
         self.items.clear();
-        if let Some(&(_, any)) = all().next() {
+        if let Some(&(_, any)) = parts.iter().find_map(|p| p.as_ref().first()) {
             self.items.resize(start as usize, any);
         }
-        for &(key, item) in all() {
-            let range = &mut self.ranges[key as usize];
-            self.items[range.1 as usize] = item;
-            range.1 += 1;
+        for part in parts {
+            for &(key, item) in part.as_ref() {
+                let range = &mut self.ranges[key as usize];
+                self.items[range.1 as usize] = item;
+                range.1 += 1;
+            }
         }
     }
 

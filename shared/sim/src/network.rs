@@ -13,29 +13,30 @@ use crate::geometry::{Polyline, box_corners};
 
 pub type LaneId = u32;
 
-/// A lane at run time. `repr(C)` keeps the fields every tick reads in the first
-/// cache line; names and geometry follow.
+/// A lane at run time. `repr(C)` keeps the fields every pass of a tick reads
+/// about each lane of a path in the first cache line, the inline geometry
+/// (straight lanes, turning) in the next two; names and the rest follow.
 #[derive(Clone, Debug)]
 #[repr(C)]
 pub struct Lane {
     length: f64,
     /// Where a signalised lane stops its traffic (stop line, else the lane end).
     light_stop: f64,
+    pub speed_limit: f64,
     pub light: Option<u32>,
     /// Junction this intersection lane belongs to.
     pub junction: Option<u32>,
     pub intersection: bool,
     pub turn: TurnDirection,
+    /// Some of `conflicts` are road conflicts (outside right of way).
+    pub road_conflicts: bool,
     pub line: Polyline,
     /// Where other lanes come close enough for two vehicles to touch.
     pub conflicts: Vec<Conflict>,
-    /// Some of `conflicts` are road conflicts (outside right of way).
-    pub road_conflicts: bool,
     pub next: Vec<LaneId>,
+    pub prev: Vec<LaneId>,
     pub name: String,
     pub width: f64,
-    pub speed_limit: f64,
-    pub prev: Vec<LaneId>,
     /// Arc length of the stop line along this lane.
     pub stop_s: Option<f64>,
     /// Centre of the stop line, if the lane has one.

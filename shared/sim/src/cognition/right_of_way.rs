@@ -33,20 +33,8 @@ const EGO_ANGLE_DEG: f64 = 30.0;
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C, align(64))]
 pub struct RowInfo {
-    /// (index in path, lane) of the first intersection lane on the path.
-    pub first_int: Option<(usize, LaneId)>,
-    /// First point of the first junction lane (the approach it enters from).
-    pub entry: DVec2,
-    pub front: DVec2,
-    pub back: DVec2,
-    pub yaw: f64,
-    /// Arc length of the rear bumper on `lane`.
-    pub rear_s: f64,
-    pub id: VehicleId,
+    // First line: what picks the junction's candidates, and its own approach.
     pub junction: Option<u32>,
-    /// path[0].
-    pub lane: LaneId,
-    pub yield_phase: YieldPhase,
     /// Within the approach window and not queued behind another vehicle.
     pub considered: bool,
     pub on_intersection: bool,
@@ -54,6 +42,20 @@ pub struct RowInfo {
     pub waiting_at_red: bool,
     /// path[1] is a junction lane.
     pub next_is_junction: bool,
+    pub yield_phase: YieldPhase,
+    /// path[0].
+    pub lane: LaneId,
+    /// (index in path, lane) of the first intersection lane on the path.
+    pub first_int: Option<(usize, LaneId)>,
+    /// First point of the first junction lane (the approach it enters from).
+    pub entry: DVec2,
+    pub yaw: f64,
+    // Second line: where its body is.
+    pub front: DVec2,
+    pub back: DVec2,
+    /// Arc length of the rear bumper on `lane`.
+    pub rear_s: f64,
+    pub id: VehicleId,
 }
 
 impl RowInfo {
@@ -88,23 +90,31 @@ impl RowInfo {
     }
 }
 
-/// Considered vehicles of each junction, in vehicle order.
-#[derive(Clone, Debug)]
-pub struct JunctionBuckets(Buckets<u32>);
+/// Considered vehicles of each junction, in vehicle order. Rebuilt in place
+/// each tick.
+#[derive(Clone, Debug, Default)]
+pub struct JunctionBuckets {
+    buckets: Buckets<u32>,
+    /// (junction, vehicle index), kept for the allocation.
+    members: Vec<(u32, u32)>,
+}
 
 impl JunctionBuckets {
-    pub fn build(net: &LaneNetwork, infos: &[RowInfo]) -> Self {
-        let members: Vec<(u32, u32)> = infos
-            .iter()
-            .enumerate()
-            .filter(|(_, info)| info.considered)
-            .filter_map(|(i, info)| Some((info.junction?, i as u32)))
-            .collect();
-        JunctionBuckets(Buckets::build(net.junction_count as usize, &members))
+    pub fn rebuild(&mut self, net: &LaneNetwork, infos: &[RowInfo]) {
+        self.members.clear();
+        self.members.extend(
+            infos
+                .iter()
+                .enumerate()
+                .filter(|(_, info)| info.considered)
+                .filter_map(|(i, info)| Some((info.junction?, i as u32))),
+        );
+        self.buckets
+            .rebuild(net.junction_count as usize, &self.members);
     }
 
     fn of(&self, junction: Option<u32>) -> &[u32] {
-        junction.map_or(&[], |j| self.0.get(j))
+        junction.map_or(&[], |j| self.buckets.get(j))
     }
 }
 

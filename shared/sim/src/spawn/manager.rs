@@ -138,18 +138,23 @@ impl SpawnManager {
                 proposals.extend(buf.drain(..).map(|p| (si, p)));
             }
         }
-        // Group by spawn point (the lane start), in first-insertion order.
-        let mut groups: Vec<(LaneId, Vec<usize>)> = Vec::new();
+        // Group by spawn point (the lane start), in first-insertion order: number
+        // the groups as they first appear, then a stable sort by group keeps
+        // the proposals of each group in order (no list per group).
         let mut group_of: FxHashMap<LaneId, usize> = FxHashMap::default();
-        for (k, (_, p)) in proposals.iter().enumerate() {
-            let g = *group_of.entry(p.lane).or_insert_with(|| {
-                groups.push((p.lane, Vec::new()));
-                groups.len() - 1
-            });
-            groups[g].1.push(k);
-        }
+        group_of.reserve(proposals.len());
+        let group: Vec<usize> = proposals
+            .iter()
+            .map(|(_, p)| {
+                let next = group_of.len();
+                *group_of.entry(p.lane).or_insert(next)
+            })
+            .collect();
+        let mut order: Vec<usize> = (0..proposals.len()).collect();
+        order.sort_by_key(|&k| group[k]);
         let mut requests = Vec::new();
-        for (lane, members) in groups {
+        for members in order.chunk_by(|&a, &b| group[a] == group[b]) {
+            let lane = proposals[members[0]].1.lane;
             let start = net.lane(lane).line.point(0);
             if let Some(ego) = ego
                 && ego.position().distance(start) < spawn_distance_to_ego

@@ -11,7 +11,7 @@ use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
 use crate::branching::{BranchPolicy, BranchStats};
-use crate::cognition::right_of_way::RowInfo;
+use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
 use crate::crosswalk::{Occupancy, OccupancyChange, OccupantType};
 use crate::ego::Ego;
 use crate::events::{DespawnReason, SimEvent};
@@ -75,6 +75,8 @@ pub struct World {
     /// What others' right of way reads about each vehicle this tick, taken
     /// as it follows its lanes (kept for the allocation).
     row: Vec<RowInfo>,
+    /// The considered vehicles of each junction (kept for the allocations).
+    junctions: JunctionBuckets,
     index: LaneIndex,
     lights: Lights,
     occupancy: Occupancy,
@@ -104,6 +106,7 @@ impl World {
             ticks: 0,
             vehicles: Vec::new(),
             row: Vec::new(),
+            junctions: JunctionBuckets::default(),
             index,
             lights,
             occupancy,

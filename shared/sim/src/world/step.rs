@@ -8,7 +8,7 @@ use super::World;
 use super::phases::Phase;
 use crate::branching::BranchChoice;
 use crate::cognition::path::advance_and_extend;
-use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
+use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
@@ -194,10 +194,10 @@ impl World {
 
     /// Parallel perception of every vehicle from the same snapshot, with whom
     /// each is waiting for (for deadlock breaking).
-    fn cognition(&self) -> (Vec<Perception>, Vec<deadlock::Wait>) {
+    fn cognition(&mut self) -> (Vec<Perception>, Vec<deadlock::Wait>) {
+        self.junctions.rebuild(&self.net, &self.row);
         let net = &self.net;
         let row = &self.row;
-        let junctions = JunctionBuckets::build(net, row);
         let snap = Snapshot {
             net,
             vehicles: &self.vehicles,
@@ -207,7 +207,7 @@ impl World {
             ego: self.ego.as_ref(),
             config: &self.config.vehicle,
             row,
-            junctions: &junctions,
+            junctions: &self.junctions,
         };
         // The waits are written beside, not paired with, the perceptions: a
         // pair would copy each perception twice more.
