@@ -11,6 +11,8 @@ use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
 use crate::branching::{BranchPolicy, BranchStats};
+use crate::cognition::Perception;
+use crate::cognition::deadlock::Wait;
 use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
 use crate::crosswalk::{Occupancy, OccupancyChange, OccupantType};
 use crate::ego::Ego;
@@ -77,6 +79,9 @@ pub struct World {
     row: Vec<RowInfo>,
     /// The considered vehicles of each junction (kept for the allocations).
     junctions: JunctionBuckets,
+    /// Cognition's output and the deadlock waits (kept for the allocations).
+    perceptions: Vec<Perception>,
+    waits: Vec<Wait>,
     index: LaneIndex,
     lights: Lights,
     occupancy: Occupancy,
@@ -107,6 +112,8 @@ impl World {
             vehicles: Vec::new(),
             row: Vec::new(),
             junctions: JunctionBuckets::default(),
+            perceptions: Vec::new(),
+            waits: Vec::new(),
             index,
             lights,
             occupancy,

@@ -64,7 +64,10 @@ impl World {
         }
         self.phase_times.lap(Phase::LaneChanges);
 
-        let (mut perceptions, waits) = self.cognition();
+        // This tick's buffers, handed back after the motion step for the next.
+        let mut perceptions = std::mem::take(&mut self.perceptions);
+        let mut waits = std::mem::take(&mut self.waits);
+        self.cognition(&mut perceptions, &mut waits);
         self.phase_times.lap(Phase::Cognition);
         deadlock::break_cycles(&self.net, &self.vehicles, &waits, &mut perceptions);
         self.phase_times.lap(Phase::Deadlock);
@@ -85,6 +88,7 @@ impl World {
                 update_pose(net, v);
                 update_trip(v, dt);
             });
+        (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
         self.ticks += 1;
@@ -193,8 +197,8 @@ impl World {
     }
 
     /// Parallel perception of every vehicle from the same snapshot, with whom
-    /// each is waiting for (for deadlock breaking).
-    fn cognition(&mut self) -> (Vec<Perception>, Vec<deadlock::Wait>) {
+    /// each is waiting for (for deadlock breaking), into the buffers given.
+    fn cognition(&mut self, perceptions: &mut Vec<Perception>, waits: &mut Vec<deadlock::Wait>) {
         self.junctions.rebuild(&self.net, &self.row);
         let net = &self.net;
         let row = &self.row;
@@ -211,18 +215,20 @@ impl World {
         };
         // The waits are written beside, not paired with, the perceptions: a
         // pair would copy each perception twice more.
-        let mut waits = vec![(deadlock::NOBODY, false); self.vehicles.len()];
-        let perceptions = waits
-            .par_iter_mut()
-            .enumerate()
-            .with_min_len(MIN_VEHICLES_PER_TASK)
-            .map(|(i, wait)| {
-                let p = perceive(&snap, i);
-                *wait = deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p);
-                p
-            })
-            .collect();
-        (perceptions, waits)
+        waits.clear();
+        waits.resize(self.vehicles.len(), (deadlock::NOBODY, false));
+        perceptions.clear();
+        perceptions.par_extend(
+            waits
+                .par_iter_mut()
+                .enumerate()
+                .with_min_len(MIN_VEHICLES_PER_TASK)
+                .map(|(i, wait)| {
+                    let p = perceive(&snap, i);
+                    *wait = deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p);
+                    p
+                }),
+        );
     }
 
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
