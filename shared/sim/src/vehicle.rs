@@ -8,11 +8,6 @@ use crate::rng::SimRng;
 
 pub type VehicleId = u64;
 
-/// followingLanes, stored in the vehicle up to eight lanes: every pass of a
-/// tick reads its first lanes, and a separate allocation per vehicle cost a
-/// cache miss per vehicle per pass.
-pub type Path = smallvec::SmallVec<[LaneId; 8]>;
-
 /// Pose in the map frame: x east, y north, z up, yaw radians counter-clockwise from +x.
 /// (x, y) is the vehicle origin, the rear axle.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -87,7 +82,7 @@ pub struct TripStats {
 pub struct Vehicle {
     // Read by every pass (lane following, lane index, cognition, motion).
     /// followingLanes: element 0 is the lane the front bumper is on.
-    pub path: Path,
+    pub path: Vec<LaneId>,
     /// Arc length of the front bumper along path[0].
     pub s: f64,
     pub speed: f64,

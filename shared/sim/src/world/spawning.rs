@@ -191,7 +191,7 @@ impl World {
             front_offset: k.front,
             length: k.length,
             width: k.width,
-            path: smallvec::smallvec![lane],
+            path: vec![lane],
             prev_lane: None,
             path_length: self.net.lane(lane).length(),
             first_junction_lane: None,
