@@ -40,17 +40,16 @@ pub struct RowInfo {
     pub on_intersection: bool,
     /// yieldingPriorityAtTrafficLight: before the junction at a red light.
     pub waiting_at_red: bool,
-    /// path[1] is a junction lane.
-    pub next_is_junction: bool,
     pub yield_phase: YieldPhase,
-    /// path[0].
+    /// path[0] and path[1].
     pub lane: LaneId,
+    pub next_lane: Option<LaneId>,
     /// (index in path, lane) of the first intersection lane on the path.
     pub first_int: Option<(usize, LaneId)>,
     /// First point of the first junction lane (the approach it enters from).
     pub entry: DVec2,
-    pub yaw: f64,
     // Second line: where its body is.
+    pub yaw: f64,
     pub front: DVec2,
     pub back: DVec2,
     /// Arc length of the rear bumper on `lane`.
@@ -59,7 +58,7 @@ pub struct RowInfo {
 }
 
 impl RowInfo {
-    pub fn of(net: &LaneNetwork, v: &Vehicle) -> Self {
+    pub fn of(v: &Vehicle) -> Self {
         let seen = RowInfo {
             front: v.front,
             back: v.back,
@@ -68,7 +67,7 @@ impl RowInfo {
             id: v.id,
             lane: v.path[0],
             yield_phase: v.yield_phase,
-            next_is_junction: v.path.get(1).is_some_and(|&l| net.lane(l).intersection),
+            next_lane: v.path.get(1).copied(),
             ..RowInfo::default()
         };
         let Some(first) = v.first_junction_lane else {
@@ -467,7 +466,7 @@ impl Ctx<'_, '_> {
                     && (!on_intersection
                         || (!o.yield_phase.is_yielding_due_to_rules()
                             && o.yield_phase != YieldPhase::IntersectionBlocked))
-                    && Self::dominates(o, priority_lane)
+                    && self.dominates(o, priority_lane)
                     && self.intersect_overall(o)
             });
             if let Some(o) = npc {
@@ -483,8 +482,11 @@ impl Ctx<'_, '_> {
     }
 
     /// The other vehicle is on, or about to enter, `lane` as its first junction lane.
-    fn dominates(o: &RowInfo, lane: LaneId) -> bool {
-        (o.on_intersection || o.next_is_junction) && Self::first_int_lane(o) == Some(lane)
+    fn dominates(&self, o: &RowInfo, lane: LaneId) -> bool {
+        let next_is_junction = o
+            .next_lane
+            .is_some_and(|l| self.net().lane(l).intersection);
+        (o.on_intersection || next_is_junction) && Self::first_int_lane(o) == Some(lane)
     }
 }
 

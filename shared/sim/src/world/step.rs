@@ -117,7 +117,7 @@ impl World {
             .filter_map(|(v, row)| {
                 if v.should_despawn {
                     // Still perceived, and seen by others, this tick.
-                    *row = RowInfo::of(net, v);
+                    *row = RowInfo::of(v);
                     flagged.store(true, Ordering::Relaxed);
                     return None;
                 }
@@ -139,7 +139,7 @@ impl World {
                 {
                     v.forced_through = None;
                 }
-                *row = RowInfo::of(net, v);
+                *row = RowInfo::of(v);
                 (!made.is_empty()).then_some((v.id, made))
             })
             .collect();
@@ -193,7 +193,7 @@ impl World {
     /// Moves vehicle `i` onto `target`, with the right-of-way facts that follow.
     fn change_lane(&mut self, i: usize, target: LaneId) {
         lane_change::apply(&self.net, &mut self.vehicles[i], target);
-        self.row[i] = RowInfo::of(&self.net, &self.vehicles[i]);
+        self.row[i] = RowInfo::of(&self.vehicles[i]);
     }
 
     /// Parallel perception of every vehicle from the same snapshot, with whom
