@@ -9,6 +9,7 @@
 //! a vehicle waiting at its own red light does not evaluate the yield predicates.
 
 use glam::DVec2;
+use rayon::prelude::*;
 use trafficmesh_model::{LightColor, YieldPhase};
 
 use super::Snapshot;
@@ -16,6 +17,7 @@ use crate::buckets::Buckets;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
+use crate::world::MIN_VEHICLES_PER_TASK;
 
 const MIN_DISTANCE_TO_INTERSECTION: f64 = 18.0;
 const APPROACH_TIME: f64 = 4.0;
@@ -100,11 +102,13 @@ pub struct JunctionBuckets {
 
 impl JunctionBuckets {
     pub fn rebuild(&mut self, net: &LaneNetwork, infos: &[RowInfo]) {
+        // Picked in parallel (rayon keeps the order), grouped on one thread.
         self.members.clear();
-        self.members.extend(
+        self.members.par_extend(
             infos
-                .iter()
+                .par_iter()
                 .enumerate()
+                .with_min_len(MIN_VEHICLES_PER_TASK)
                 .filter(|(_, info)| info.considered)
                 .filter_map(|(i, info)| Some((info.junction?, i as u32))),
         );
