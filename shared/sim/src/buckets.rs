@@ -80,6 +80,21 @@ impl<T: Copy> Buckets<T> {
         }
     }
 
+    /// Asks for the cache line of the key's range (see [`crate::prefetch`]).
+    pub fn prefetch_key(&self, key: u32) {
+        if let Some(range) = self.ranges.get(key as usize) {
+            crate::prefetch::line(range);
+        }
+    }
+
+    /// Asks for the first cache line of the key's items (its range should be
+    /// in cache already: see [`Buckets::prefetch_key`]).
+    pub fn prefetch_items(&self, key: u32) {
+        if let Some(first) = self.get(key).first() {
+            crate::prefetch::line(first);
+        }
+    }
+
     pub fn get(&self, key: u32) -> &[T] {
         let (a, b) = self.ranges[key as usize];
         &self.items[a as usize..b as usize]

@@ -77,7 +77,8 @@ impl ChunkItems {
         let items = &mut self.occupants;
         items.clear();
         self.lane_changers.clear();
-        for (i, v) in (first..).zip(some) {
+        for (k, (i, v)) in (first..).zip(some).enumerate() {
+            crate::prefetch::paths_ahead(net, some, k, 1);
             let body = |ghost| Occupant {
                 rear: v.rear_s(),
                 front: v.s,
@@ -200,6 +201,19 @@ impl LaneIndex {
     /// Conflict zones of `lane` with a body of another lane in them.
     pub fn blocked_zones(&self, lane: LaneId) -> &[BlockedZone] {
         self.blocked.get(lane)
+    }
+
+    /// Asks for the cache lines where the look-ups of `lane` start.
+    pub fn prefetch_lane(&self, lane: LaneId) {
+        self.occupants.prefetch_key(lane);
+        self.blocked.prefetch_key(lane);
+    }
+
+    /// Asks for the first occupants and zones of `lane`, once its entries
+    /// ([`LaneIndex::prefetch_lane`]) have arrived.
+    pub fn prefetch_lane_items(&self, lane: LaneId) {
+        self.occupants.prefetch_items(lane);
+        self.blocked.prefetch_items(lane);
     }
 }
 

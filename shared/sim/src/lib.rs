@@ -26,6 +26,7 @@ pub mod lights;
 pub mod network;
 pub mod pedestrians;
 pub mod populate;
+pub mod prefetch;
 pub mod rng;
 pub mod spawn;
 pub mod trajectory;

@@ -116,7 +116,7 @@ impl JunctionBuckets {
             .rebuild(net.junction_count as usize, &self.members);
     }
 
-    fn of(&self, junction: Option<u32>) -> &[u32] {
+    pub(crate) fn of(&self, junction: Option<u32>) -> &[u32] {
         junction.map_or(&[], |j| self.buckets.get(j))
     }
 }

@@ -14,6 +14,7 @@ use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
+use crate::prefetch;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
 use crate::visualization::update_trip;
@@ -224,6 +225,7 @@ impl World {
                 .enumerate()
                 .with_min_len(MIN_VEHICLES_PER_TASK)
                 .map(|(i, wait)| {
+                    prefetch::cognition_ahead(&snap, i);
                     let p = perceive(&snap, i);
                     *wait = deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p);
                     p

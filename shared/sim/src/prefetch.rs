@@ -1,0 +1,90 @@
+//! Software prefetch hints. A tick at 10,000 vehicles waits on memory, not on
+//! arithmetic: each vehicle reads lanes and lane-index entries scattered over
+//! tens of megabytes, in an order the hardware cannot guess. The loops over
+//! vehicles know it a few vehicles ahead and ask for those lines early. A hint
+//! never faults and never changes a result.
+
+use crate::cognition::Snapshot;
+use crate::network::{Lane, LaneNetwork};
+use crate::vehicle::Vehicle;
+
+/// How many vehicles ahead the lanes are asked for; the path lists twice as far.
+pub const AHEAD: usize = 8;
+
+/// Asks for the cache line at `p`.
+#[inline(always)]
+fn hint(p: *const u8) {
+    #[cfg(target_arch = "x86_64")]
+    {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        // SAFETY: SSE is part of every x86_64 target, and a prefetch of any
+        // address neither faults nor writes.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(p.cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = p;
+}
+
+/// Asks for the cache line holding `value`.
+#[inline(always)]
+pub fn line<T>(value: &T) {
+    hint((value as *const T).cast());
+}
+
+/// The lines of a lane that a tick reads: the per-tick fields and the inline
+/// geometry (see [`Lane`]'s layout).
+#[inline(always)]
+fn lane(l: &Lane) {
+    let p: *const u8 = (l as *const Lane).cast();
+    for k in 0..3 {
+        hint(p.wrapping_add(64 * k));
+    }
+}
+
+/// For a loop over `vehicles` at `i`: the path list of vehicle i + 2·AHEAD,
+/// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
+/// AHEAD iterations ago) with the lane it comes from.
+#[inline(always)]
+pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
+    if let Some(far) = vehicles.get(i + 2 * AHEAD)
+        && let Some(first) = far.path.first()
+    {
+        line(first);
+    }
+    if let Some(near) = vehicles.get(i + AHEAD) {
+        for &id in near.path.iter().take(lanes).chain(&near.prev_lane) {
+            lane(net.lane(id));
+        }
+    }
+}
+
+/// [`paths_ahead`] over the lanes cognition looks at, with their lane-index entries.
+#[inline(always)]
+pub fn cognition_ahead(snap: &Snapshot, i: usize) {
+    const LANES: usize = 3;
+    paths_ahead(snap.net, snap.vehicles, i, LANES);
+    if let Some(near) = snap.vehicles.get(i + AHEAD) {
+        for &id in near.path.iter().take(LANES) {
+            snap.index.prefetch_lane(id);
+        }
+    }
+    // Half as far ahead, the entries asked for above have arrived: now their
+    // items, and the facts of the other vehicles at the junction ahead.
+    if let Some(nearer) = snap.vehicles.get(i + AHEAD / 2) {
+        for &id in nearer.path.iter().take(LANES) {
+            snap.index.prefetch_lane_items(id);
+        }
+    }
+    if let Some(row) = snap.row.get(i + AHEAD / 2)
+        && row.considered
+    {
+        for &j in snap.junctions.of(row.junction).iter().take(CANDIDATES) {
+            let other = &snap.row[j as usize];
+            line(other);
+            line(&other.front);
+        }
+    }
+}
+
+/// Other vehicles of a junction whose facts are asked for ahead.
+const CANDIDATES: usize = 8;
