@@ -75,19 +75,15 @@ impl World {
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
         let (net, config) = (&self.net, &self.config.vehicle);
+        // In chunks, so that each loop can look at the vehicles ahead of it.
         self.vehicles
-            .par_iter_mut()
-            .zip(perceptions.par_iter())
-            .with_min_len(MIN_VEHICLES_PER_TASK)
-            .for_each(|(v, p)| {
-                p.apply(v);
-                if v.should_despawn {
-                    return;
+            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
+            .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
+            .for_each(|(vehicles, perceptions)| {
+                for (k, p) in perceptions.iter().enumerate() {
+                    prefetch::paths_ahead(net, vehicles, k, 1);
+                    move_vehicle(net, config, dt, &mut vehicles[k], p);
                 }
-                v.speed_mode = decide(v, config);
-                step_speed(net, v, config, dt);
-                update_pose(net, v);
-                update_trip(v, dt);
             });
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
@@ -112,36 +108,26 @@ impl World {
         // the serial recording below costs the choices, not the vehicles.
         let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
-            .par_iter_mut()
-            .zip(self.row.par_iter_mut())
-            .with_min_len(MIN_VEHICLES_PER_TASK)
-            .filter_map(|(v, row)| {
-                if v.should_despawn {
-                    // Still perceived, and seen by others, this tick.
+            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
+            .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+            .flat_map_iter(|(vehicles, rows)| {
+                // In chunks, so that the loop can look at the vehicles ahead of it.
+                let mut chosen = Vec::new();
+                for (k, row) in rows.iter_mut().enumerate() {
+                    prefetch::paths_ahead(net, vehicles, k, 1);
+                    let v = &mut vehicles[k];
+                    let made = follow_lanes_of(net, policy, motion, v);
+                    if v.should_despawn {
+                        flagged.store(true, Ordering::Relaxed);
+                    }
+                    // Also for a vehicle about to leave: it is still perceived,
+                    // and seen by others, this tick.
                     *row = RowInfo::of(v);
-                    flagged.store(true, Ordering::Relaxed);
-                    return None;
-                }
-                let mut made = Vec::new();
-                let before = (v.path[0], v.path.get(1).copied());
-                advance_and_extend(net, policy, v, motion, &mut made);
-                if before != (v.path[0], v.path.get(1).copied()) {
-                    lane_change::refresh_first_lanes(net, v);
-                }
-                if v.should_despawn {
-                    flagged.store(true, Ordering::Relaxed);
-                    if v.despawn_reason.is_none() {
-                        v.despawn_reason = Some(DespawnReason::DeadEnd);
+                    if !made.is_empty() {
+                        chosen.push((v.id, made));
                     }
                 }
-                if v.forced_through.is_some()
-                    && !net.lane(v.path[0]).intersection
-                    && v.prev_lane.is_some_and(|p| net.lane(p).intersection)
-                {
-                    v.forced_through = None;
-                }
-                *row = RowInfo::of(v);
-                (!made.is_empty()).then_some((v.id, made))
+                chosen
             })
             .collect();
         for (id, made) in decisions {
@@ -287,4 +273,51 @@ impl World {
             !v.should_despawn
         });
     }
+}
+
+/// Lane advance and branch choices of one vehicle (none for one already
+/// leaving), with what follows from them; returns the choices made.
+fn follow_lanes_of(
+    net: &LaneNetwork,
+    policy: &crate::branching::BranchPolicy,
+    motion: &trafficmesh_model::NpcVehicleConfig,
+    v: &mut Vehicle,
+) -> Vec<BranchChoice> {
+    let mut made = Vec::new();
+    if v.should_despawn {
+        return made;
+    }
+    let before = (v.path[0], v.path.get(1).copied());
+    advance_and_extend(net, policy, v, motion, &mut made);
+    if before != (v.path[0], v.path.get(1).copied()) {
+        lane_change::refresh_first_lanes(net, v);
+    }
+    if v.should_despawn && v.despawn_reason.is_none() {
+        v.despawn_reason = Some(DespawnReason::DeadEnd);
+    }
+    if v.forced_through.is_some()
+        && !net.lane(v.path[0]).intersection
+        && v.prev_lane.is_some_and(|p| net.lane(p).intersection)
+    {
+        v.forced_through = None;
+    }
+    made
+}
+
+/// Decision, Control and Visualization of one vehicle, after its perception.
+fn move_vehicle(
+    net: &LaneNetwork,
+    config: &trafficmesh_model::NpcVehicleConfig,
+    dt: f64,
+    v: &mut Vehicle,
+    p: &Perception,
+) {
+    p.apply(v);
+    if v.should_despawn {
+        return;
+    }
+    v.speed_mode = decide(v, config);
+    step_speed(net, v, config, dt);
+    update_pose(net, v);
+    update_trip(v, dt);
 }
