@@ -126,6 +126,19 @@ impl Polyline {
         i
     }
 
+    /// Asks for the vertices [`Polyline::point_at`] will read at `s` (see
+    /// [`crate::prefetch`]); a straight polyline has them inline.
+    #[inline]
+    pub fn prefetch_at(&self, s: f64) {
+        if self.straight {
+            return;
+        }
+        let last = self.vertices.len() - 2;
+        let i = ((s / self.length) * (last + 1) as f64).clamp(0.0, last as f64) as usize;
+        crate::prefetch::line(&self.vertices[i]);
+        crate::prefetch::line(&self.vertices[i + 1]);
+    }
+
     /// Unit direction of segment i.
     pub fn direction(&self, i: usize) -> DVec2 {
         (self.vertices[i + 1].point - self.vertices[i].point).normalize_or_zero()

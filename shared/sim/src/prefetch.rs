@@ -58,11 +58,49 @@ pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usi
     }
 }
 
+/// What [`geometry_ahead`] asks for.
+#[derive(Clone, Copy, PartialEq, Eq)]
+pub enum Geometry {
+    /// The vertices around the vehicle's front and rear on curved lanes (the
+    /// pose and curve detection read them).
+    Vertices,
+    /// The first conflict zones of the lanes its body is on (the lane index
+    /// reads them).
+    Conflicts,
+}
+
+/// Half as far ahead as [`paths_ahead`], whose lanes have arrived by then:
+/// the `what` of the lanes under vehicle i + AHEAD/2.
+#[inline(always)]
+pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: Geometry) {
+    let Some(v) = vehicles.get(i + AHEAD / 2) else {
+        return;
+    };
+    let here = net.lane(v.path[0]);
+    let behind = v.prev_lane.map(|p| net.lane(p)).filter(|_| v.rear_s() < 0.0);
+    match what {
+        Geometry::Vertices => {
+            here.line.prefetch_at(v.s);
+            if let Some(b) = behind {
+                b.line.prefetch_at(b.length() + v.rear_s());
+            }
+        }
+        Geometry::Conflicts => {
+            for l in std::iter::once(here).chain(behind) {
+                if let Some(c) = l.conflicts.first() {
+                    line(c);
+                }
+            }
+        }
+    }
+}
+
 /// [`paths_ahead`] over the lanes cognition looks at, with their lane-index entries.
 #[inline(always)]
 pub fn cognition_ahead(snap: &Snapshot, i: usize) {
     const LANES: usize = 3;
     paths_ahead(snap.net, snap.vehicles, i, LANES);
+    geometry_ahead(snap.net, snap.vehicles, i, Geometry::Vertices);
     if let Some(near) = snap.vehicles.get(i + AHEAD) {
         for &id in near.path.iter().take(LANES) {
             snap.index.prefetch_lane(id);
