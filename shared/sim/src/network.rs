@@ -15,7 +15,8 @@ pub type LaneId = u32;
 
 /// A lane at run time. `repr(C)` keeps the fields every pass of a tick reads
 /// about each lane of a path in the first cache line, the inline geometry
-/// (straight lanes, turning) in the next two; names and the rest follow.
+/// (straight lanes, turning) and the conflicts in the next two, right of way
+/// in the fourth; names and the rest follow.
 #[derive(Clone, Debug)]
 #[repr(C)]
 pub struct Lane {
@@ -33,15 +34,16 @@ pub struct Lane {
     pub line: Polyline,
     /// Where other lanes come close enough for two vehicles to touch.
     pub conflicts: Vec<Conflict>,
+    // Fourth line: what right of way reads about a junction lane.
+    pub right_of_way: Vec<LaneId>,
+    /// Centre of the stop line, if the lane has one.
+    pub stop_center: Option<DVec2>,
     pub next: Vec<LaneId>,
     pub prev: Vec<LaneId>,
     pub name: String,
     pub width: f64,
     /// Arc length of the stop line along this lane.
     pub stop_s: Option<f64>,
-    /// Centre of the stop line, if the lane has one.
-    pub stop_center: Option<DVec2>,
-    pub right_of_way: Vec<LaneId>,
 }
 
 impl Lane {

@@ -31,12 +31,12 @@ pub fn line<T>(value: &T) {
     hint((value as *const T).cast());
 }
 
-/// The lines of a lane that a tick reads: the per-tick fields and the inline
-/// geometry (see [`Lane`]'s layout).
+/// The first `lines` cache lines of a lane: the per-tick fields, the inline
+/// geometry and conflicts (three), right of way (four): see [`Lane`]'s layout.
 #[inline(always)]
-fn lane(l: &Lane) {
+pub fn lane(l: &Lane, lines: usize) {
     let p: *const u8 = (l as *const Lane).cast();
-    for k in 0..3 {
+    for k in 0..lines {
         hint(p.wrapping_add(64 * k));
     }
 }
@@ -45,7 +45,13 @@ fn lane(l: &Lane) {
 /// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
 /// AHEAD iterations ago) with the lane it comes from.
 #[inline(always)]
-pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
+pub fn paths_ahead(
+    net: &LaneNetwork,
+    vehicles: &[Vehicle],
+    i: usize,
+    lanes: usize,
+    lines: usize,
+) {
     if let Some(far) = vehicles.get(i + 2 * AHEAD)
         && let Some(first) = far.path.first()
     {
@@ -53,7 +59,7 @@ pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usi
     }
     if let Some(near) = vehicles.get(i + AHEAD) {
         for &id in near.path.iter().take(lanes).chain(&near.prev_lane) {
-            lane(net.lane(id));
+            lane(net.lane(id), lines);
         }
     }
 }
@@ -99,7 +105,7 @@ pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: G
 #[inline(always)]
 pub fn cognition_ahead(snap: &Snapshot, i: usize) {
     const LANES: usize = 3;
-    paths_ahead(snap.net, snap.vehicles, i, LANES);
+    paths_ahead(snap.net, snap.vehicles, i, LANES, 4);
     geometry_ahead(snap.net, snap.vehicles, i, Geometry::Vertices);
     if let Some(near) = snap.vehicles.get(i + AHEAD) {
         for &id in near.path.iter().take(LANES) {
