@@ -45,13 +45,7 @@ pub fn lane(l: &Lane, lines: usize) {
 /// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
 /// AHEAD iterations ago) with the lane it comes from.
 #[inline(always)]
-pub fn paths_ahead(
-    net: &LaneNetwork,
-    vehicles: &[Vehicle],
-    i: usize,
-    lanes: usize,
-    lines: usize,
-) {
+pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize, lines: usize) {
     if let Some(far) = vehicles.get(i + 2 * AHEAD)
         && let Some(first) = far.path.first()
     {
@@ -83,7 +77,10 @@ pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: G
         return;
     };
     let here = net.lane(v.path[0]);
-    let behind = v.prev_lane.map(|p| net.lane(p)).filter(|_| v.rear_s() < 0.0);
+    let behind = v
+        .prev_lane
+        .map(|p| net.lane(p))
+        .filter(|_| v.rear_s() < 0.0);
     match what {
         Geometry::Vertices => {
             here.line.prefetch_at(v.s);

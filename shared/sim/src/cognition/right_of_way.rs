@@ -487,9 +487,7 @@ impl Ctx<'_, '_> {
 
     /// The other vehicle is on, or about to enter, `lane` as its first junction lane.
     fn dominates(&self, o: &RowInfo, lane: LaneId) -> bool {
-        let next_is_junction = o
-            .next_lane
-            .is_some_and(|l| self.net().lane(l).intersection);
+        let next_is_junction = o.next_lane.is_some_and(|l| self.net().lane(l).intersection);
         (o.on_intersection || next_is_junction) && Self::first_int_lane(o) == Some(lane)
     }
 }

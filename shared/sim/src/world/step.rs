@@ -14,8 +14,8 @@ use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
-use crate::prefetch;
 use crate::network::{LaneId, LaneNetwork};
+use crate::prefetch;
 use crate::vehicle::{Vehicle, VehicleId};
 use crate::visualization::update_trip;
 
