@@ -78,7 +78,7 @@ impl ChunkItems {
         items.clear();
         self.lane_changers.clear();
         for (k, (i, v)) in (first..).zip(some).enumerate() {
-            crate::prefetch::paths_ahead(net, some, k, 1, 3);
+            crate::prefetch::paths_ahead(net, some, k, 1);
             crate::prefetch::geometry_ahead(net, some, k, crate::prefetch::Geometry::Conflicts);
             let body = |ghost| Occupant {
                 rear: v.rear_s(),

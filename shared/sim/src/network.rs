@@ -14,9 +14,9 @@ use crate::geometry::{Polyline, box_corners};
 pub type LaneId = u32;
 
 /// A lane at run time. `repr(C)` keeps the fields every pass of a tick reads
-/// about each lane of a path in the first cache line, the inline geometry
-/// (straight lanes, turning) and the conflicts in the next two, right of way
-/// in the fourth; names and the rest follow.
+/// about each lane of a path in the first cache line, then the inline geometry
+/// (straight lanes, turning), the conflicts and right of way: the four lines
+/// the passes prefetch ([`crate::prefetch::LANE_LINES`]). Names and the rest follow.
 #[derive(Clone, Debug)]
 #[repr(C)]
 pub struct Lane {
@@ -34,7 +34,7 @@ pub struct Lane {
     pub line: Polyline,
     /// Where other lanes come close enough for two vehicles to touch.
     pub conflicts: Vec<Conflict>,
-    // Fourth line: what right of way reads about a junction lane.
+    // What right of way reads about a junction lane.
     pub right_of_way: Vec<LaneId>,
     /// Centre of the stop line, if the lane has one.
     pub stop_center: Option<DVec2>,
@@ -347,4 +347,26 @@ fn intern_kind(kinds: &mut Vec<VehicleKind>, name: &str) -> Option<usize> {
             kinds.len() - 1
         }
     })
+}
+
+#[cfg(test)]
+mod layout_tests {
+    use std::mem::{offset_of, size_of};
+
+    use super::*;
+    use crate::prefetch::LANE_LINES;
+
+    /// The prefetches ask for a lane's first lines by count: what the passes
+    /// read must stay within them when fields move.
+    #[test]
+    fn the_fields_a_tick_reads_lie_in_the_lines_prefetched() {
+        let end = |offset: usize, size: usize| offset + size;
+        assert!(end(offset_of!(Lane, road_conflicts), 1) <= 64);
+        assert!(end(offset_of!(Lane, speed_limit), 8) <= 64);
+        let within = 64 * LANE_LINES;
+        assert!(end(offset_of!(Lane, line), size_of::<Polyline>()) <= within);
+        assert!(end(offset_of!(Lane, conflicts), size_of::<Vec<Conflict>>()) <= within);
+        assert!(end(offset_of!(Lane, right_of_way), size_of::<Vec<LaneId>>()) <= within);
+        assert!(end(offset_of!(Lane, stop_center), size_of::<Option<DVec2>>()) <= within);
+    }
 }

@@ -31,12 +31,16 @@ pub fn line<T>(value: &T) {
     hint((value as *const T).cast());
 }
 
-/// The first `lines` cache lines of a lane: the per-tick fields, the inline
-/// geometry and conflicts (three), right of way (four): see [`Lane`]'s layout.
+/// Lane bytes the passes over vehicles read, in 64-byte lines: the per-tick
+/// fields, the inline geometry, the conflict list and right of way (see
+/// [`Lane`]'s layout; a test there keeps them within).
+pub const LANE_LINES: usize = 4;
+
+/// The first [`LANE_LINES`] 64-byte lines of a lane.
 #[inline(always)]
-pub fn lane(l: &Lane, lines: usize) {
+pub fn lane(l: &Lane) {
     let p: *const u8 = (l as *const Lane).cast();
-    for k in 0..lines {
+    for k in 0..LANE_LINES {
         hint(p.wrapping_add(64 * k));
     }
 }
@@ -45,7 +49,7 @@ pub fn lane(l: &Lane, lines: usize) {
 /// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
 /// AHEAD iterations ago) with the lane it comes from.
 #[inline(always)]
-pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize, lines: usize) {
+pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
     if let Some(far) = vehicles.get(i + 2 * AHEAD)
         && let Some(first) = far.path.first()
     {
@@ -53,7 +57,7 @@ pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usi
     }
     if let Some(near) = vehicles.get(i + AHEAD) {
         for &id in near.path.iter().take(lanes).chain(&near.prev_lane) {
-            lane(net.lane(id), lines);
+            lane(net.lane(id));
         }
     }
 }
@@ -102,7 +106,7 @@ pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: G
 #[inline(always)]
 pub fn cognition_ahead(snap: &Snapshot, i: usize) {
     const LANES: usize = 3;
-    paths_ahead(snap.net, snap.vehicles, i, LANES, 4);
+    paths_ahead(snap.net, snap.vehicles, i, LANES);
     geometry_ahead(snap.net, snap.vehicles, i, Geometry::Vertices);
     if let Some(near) = snap.vehicles.get(i + AHEAD) {
         for &id in near.path.iter().take(LANES) {

@@ -81,7 +81,7 @@ impl World {
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
             .for_each(|(vehicles, perceptions)| {
                 for (k, p) in perceptions.iter().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k, 1, 3);
+                    prefetch::paths_ahead(net, vehicles, k, 1);
                     prefetch::geometry_ahead(net, vehicles, k, prefetch::Geometry::Vertices);
                     move_vehicle(net, config, dt, &mut vehicles[k], p);
                 }
@@ -115,7 +115,7 @@ impl World {
                 // In chunks, so that the loop can look at the vehicles ahead of it.
                 let mut chosen = Vec::new();
                 for (k, row) in rows.iter_mut().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k, 1, 3);
+                    prefetch::paths_ahead(net, vehicles, k, 1);
                     let v = &mut vehicles[k];
                     let made = follow_lanes_of(net, policy, motion, v);
                     if v.should_despawn {
