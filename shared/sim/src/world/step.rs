@@ -3,10 +3,11 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
+use trafficmesh_model::NpcVehicleConfig;
 
 use super::World;
 use super::phases::Phase;
-use crate::branching::BranchChoice;
+use crate::branching::{BranchChoice, BranchPolicy};
 use crate::cognition::path::advance_and_extend;
 use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
@@ -280,8 +281,8 @@ impl World {
 /// leaving), with what follows from them; returns the choices made.
 fn follow_lanes_of(
     net: &LaneNetwork,
-    policy: &crate::branching::BranchPolicy,
-    motion: &trafficmesh_model::NpcVehicleConfig,
+    policy: &BranchPolicy,
+    motion: &NpcVehicleConfig,
     v: &mut Vehicle,
 ) -> Vec<BranchChoice> {
     let mut made = Vec::new();
@@ -308,7 +309,7 @@ fn follow_lanes_of(
 /// Decision, Control and Visualization of one vehicle, after its perception.
 fn move_vehicle(
     net: &LaneNetwork,
-    config: &trafficmesh_model::NpcVehicleConfig,
+    config: &NpcVehicleConfig,
     dt: f64,
     v: &mut Vehicle,
     p: &Perception,
