@@ -45,20 +45,33 @@ pub fn lane(l: &Lane) {
     }
 }
 
-/// For a loop over `vehicles` at `i`: the path list of vehicle i + 2·AHEAD,
-/// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
-/// AHEAD iterations ago) with the lane it comes from.
+/// The path list of vehicle i + 2·AHEAD, for the lanes asked for AHEAD
+/// iterations later.
 #[inline(always)]
-pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
+fn path_list(vehicles: &[Vehicle], i: usize) {
     if let Some(far) = vehicles.get(i + 2 * AHEAD)
         && let Some(first) = far.path.first()
     {
         line(first);
     }
+}
+
+/// The first `lanes` lanes of the path, and the lane the vehicle comes from.
+#[inline(always)]
+fn lanes_of(net: &LaneNetwork, v: &Vehicle, lanes: usize) {
+    for &id in v.path.iter().take(lanes).chain(&v.prev_lane) {
+        lane(net.lane(id));
+    }
+}
+
+/// For a loop over `vehicles` at `i`: the path list of vehicle i + 2·AHEAD,
+/// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
+/// AHEAD iterations ago) with the lane it comes from.
+#[inline(always)]
+pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
+    path_list(vehicles, i);
     if let Some(near) = vehicles.get(i + AHEAD) {
-        for &id in near.path.iter().take(lanes).chain(&near.prev_lane) {
-            lane(net.lane(id));
-        }
+        lanes_of(net, near, lanes);
     }
 }
 
@@ -77,9 +90,13 @@ pub enum Geometry {
 /// the `what` of the lanes under vehicle i + AHEAD/2.
 #[inline(always)]
 pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: Geometry) {
-    let Some(v) = vehicles.get(i + AHEAD / 2) else {
-        return;
-    };
+    if let Some(v) = vehicles.get(i + AHEAD / 2) {
+        geometry_under(net, v, what);
+    }
+}
+
+#[inline(always)]
+fn geometry_under(net: &LaneNetwork, v: &Vehicle, what: Geometry) {
     let here = net.lane(v.path[0]);
     let behind = v
         .prev_lane
@@ -102,20 +119,21 @@ pub fn geometry_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, what: G
     }
 }
 
-/// [`paths_ahead`] over the lanes cognition looks at, with their lane-index entries.
+/// For cognition at `i`: [`paths_ahead`] over the lanes it looks at, with
+/// their lane-index entries; half as far ahead, the index items, the vertices
+/// and the facts of the other vehicles at the junction ahead.
 #[inline(always)]
 pub fn cognition_ahead(snap: &Snapshot, i: usize) {
     const LANES: usize = 3;
-    paths_ahead(snap.net, snap.vehicles, i, LANES);
-    geometry_ahead(snap.net, snap.vehicles, i, Geometry::Vertices);
+    path_list(snap.vehicles, i);
     if let Some(near) = snap.vehicles.get(i + AHEAD) {
+        lanes_of(snap.net, near, LANES);
         for &id in near.path.iter().take(LANES) {
             snap.index.prefetch_lane(id);
         }
     }
-    // Half as far ahead, the entries asked for above have arrived: now their
-    // items, and the facts of the other vehicles at the junction ahead.
     if let Some(nearer) = snap.vehicles.get(i + AHEAD / 2) {
+        geometry_under(snap.net, nearer, Geometry::Vertices);
         for &id in nearer.path.iter().take(LANES) {
             snap.index.prefetch_lane_items(id);
         }

@@ -120,10 +120,10 @@ impl Search<'_, '_> {
     /// The nearest vehicle ahead on the lane whose body is ahead of ours.
     fn leader_on(&self, LaneAhead { lane, offset }: LaneAhead) -> FrontObstacle {
         let v = self.v;
-        let occupants = self.snap.index.on_lane(lane);
-        // Sorted by rear: skip every body whose rear is behind ours.
-        let first = occupants.partition_point(|o| offset + o.rear <= -v.length);
-        for occ in &occupants[first..] {
+        // Sorted by rear: skip every body whose rear is behind ours (one by
+        // one: a lane holds a few bodies, fewer than a binary search's steps).
+        let occupants = self.snap.index.on_lane(lane).iter();
+        for occ in occupants.skip_while(|o| offset + o.rear <= -v.length) {
             if occ.vehicle as usize == self.i {
                 continue;
             }
