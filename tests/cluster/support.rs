@@ -2,10 +2,8 @@
 //! and files, and a Zenoh client session that talks to it like any user's.
 
 use std::io::Read;
-use std::net::TcpListener;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
@@ -21,24 +19,8 @@ pub fn four_way() -> PathBuf {
     repo().join("configs/maps/four_way.map.json")
 }
 
-/// A port for a test cluster to listen on. It lies below the kernel's
-/// ephemeral range (32768 and up), so no outgoing connection (a Zenoh session
-/// of another test, say) can take it between this check and the cluster's own
-/// bind, which is how a port from `bind(":0")` was lost; process id and a
-/// counter spread the test processes that nextest runs at once.
 fn free_port() -> u16 {
-    const FIRST: u32 = 20_000;
-    const SPAN: u32 = 12_000;
-    static NEXT: AtomicU32 = AtomicU32::new(0);
-    let start = std::process::id().wrapping_mul(97);
-    for _ in 0..SPAN {
-        let k = NEXT.fetch_add(1, Ordering::Relaxed);
-        let port = (FIRST + start.wrapping_add(k.wrapping_mul(13)) % SPAN) as u16;
-        if TcpListener::bind(("127.0.0.1", port)).is_ok() {
-            return port;
-        }
-    }
-    panic!("no free port in {FIRST}..{}", FIRST + SPAN);
+    trafficmesh_bus::free_loopback_port().expect("a free loopback port")
 }
 
 pub struct Cluster {

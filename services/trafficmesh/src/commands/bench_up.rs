@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 
 use anyhow::{Context, Result};
-use trafficmesh_bus::BusArgs;
+use trafficmesh_bus::{BusArgs, free_loopback_port};
 use trafficmesh_maps::GridOptions;
 
 pub struct BenchCluster {
@@ -16,12 +16,6 @@ pub struct BenchCluster {
     pub dir: PathBuf,
     pub log: PathBuf,
     up: Child,
-}
-
-fn free_port() -> Result<u16> {
-    Ok(std::net::TcpListener::bind("127.0.0.1:0")?
-        .local_addr()?
-        .port())
 }
 
 impl BenchCluster {
@@ -37,8 +31,8 @@ impl BenchCluster {
         });
         trafficmesh_maps::write_atomic(&map, serde_json::to_string(&grid)?.as_bytes())?;
         let cluster = format!("bench{}", std::process::id());
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port()?);
-        let admin_port = free_port()?;
+        let endpoint = format!("tcp/127.0.0.1:{}", free_loopback_port()?);
+        let admin_port = free_loopback_port()?;
         let token = format!("bench-token-{}-{admin_port}", std::process::id());
         let config = dir.join("cluster.toml");
         std::fs::write(
