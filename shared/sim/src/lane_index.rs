@@ -64,7 +64,7 @@ pub struct LaneIndex {
 
 /// The index items of one chunk of vehicles (kept for their allocations).
 #[derive(Clone, Debug, Default)]
-pub(crate) struct ChunkItems {
+struct ChunkItems {
     occupants: Vec<(LaneId, Occupant)>,
     blocked: Vec<(LaneId, BlockedZone)>,
     lane_changers: Vec<u32>,
@@ -74,61 +74,50 @@ impl ChunkItems {
     /// Bodies (and ghosts) of `some`, the vehicles from index `first` on, and
     /// the conflict zones their bodies block.
     fn fill(&mut self, net: &LaneNetwork, some: &[Vehicle], first: u32) {
-        self.clear();
+        let items = &mut self.occupants;
+        items.clear();
+        self.lane_changers.clear();
         for (k, (i, v)) in (first..).zip(some).enumerate() {
             crate::prefetch::paths_ahead(net, some, k, 1);
             crate::prefetch::geometry_ahead(net, some, k, crate::prefetch::Geometry::Conflicts);
-            self.push(net, v, i);
+            let body = |ghost| Occupant {
+                rear: v.rear_s(),
+                front: v.s,
+                speed: v.speed,
+                vehicle: i,
+                ghost,
+            };
+            items.push((v.path[0], body(false)));
+            if let Some(target) = v.lane_change {
+                self.lane_changers.push(i);
+                items.push((target, body(true)));
+            }
+            if v.rear_s() < 0.0
+                && let Some(p) = v.prev_lane
+            {
+                push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
+            }
         }
-    }
-
-    /// Starts a chunk over.
-    pub(crate) fn clear(&mut self) {
-        self.occupants.clear();
-        self.blocked.clear();
-        self.lane_changers.clear();
-    }
-
-    /// Vehicle `v` (index `i`): its body, its ghost and the conflict zones
-    /// its body blocks. Vehicles are pushed in index order.
-    pub(crate) fn push(&mut self, net: &LaneNetwork, v: &Vehicle, i: u32) {
-        let items = &mut self.occupants;
-        let first_item = items.len();
-        let body = |ghost| Occupant {
-            rear: v.rear_s(),
-            front: v.s,
-            speed: v.speed,
-            vehicle: i,
-            ghost,
-        };
-        items.push((v.path[0], body(false)));
-        if let Some(target) = v.lane_change {
-            self.lane_changers.push(i);
-            items.push((target, body(true)));
-        }
-        if v.rear_s() < 0.0
-            && let Some(p) = v.prev_lane
-        {
-            push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
-        }
-        for &(lane, occ) in items[first_item..].iter().filter(|(_, o)| !o.ghost) {
+        let blocked = &mut self.blocked;
+        blocked.clear();
+        for &(lane, occ) in items.iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
                 // Sorted by zone start: the rest lie beyond the front.
                 if c.a0 > occ.front {
                     break;
                 }
                 if occ.rear <= c.a1 {
-                    self.blocked.push((
+                    blocked.push((
                         c.other,
                         BlockedZone {
                             start: c.b0,
                             end: c.b1,
                             parallel_rear: c.parallel.then(|| c.b0 + (occ.rear - c.a0).max(0.0)),
                             source: lane,
-                            vehicle: i,
+                            vehicle: occ.vehicle,
                             road: c.road,
                             room: c.room,
-                            width: v.width,
+                            width: some[(occ.vehicle - first) as usize].width,
                         },
                     ));
                 }
@@ -149,28 +138,15 @@ impl LaneIndex {
     pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
         // Items per chunk of vehicles in parallel, then joined in vehicle order,
         // so the result does not depend on the thread count.
-        self.chunks_for(vehicles.len())
+        let chunk_count = vehicles.len().div_ceil(MIN_VEHICLES_PER_TASK);
+        self.chunks.resize_with(chunk_count, Default::default);
+        self.chunks
             .par_iter_mut()
             .zip(vehicles.par_chunks(MIN_VEHICLES_PER_TASK))
             .enumerate()
             .for_each(|(k, (chunk, some))| {
                 chunk.fill(net, some, (k * MIN_VEHICLES_PER_TASK) as u32)
             });
-        self.group(net);
-    }
-
-    /// The item lists of `vehicle_count` vehicles in chunks of
-    /// [`MIN_VEHICLES_PER_TASK`], to be filled by a pass over the vehicles
-    /// (chunk k from vehicle k·MIN_VEHICLES_PER_TASK on, every vehicle pushed
-    /// in order) before [`LaneIndex::group`].
-    pub(crate) fn chunks_for(&mut self, vehicle_count: usize) -> &mut [ChunkItems] {
-        let chunk_count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
-        self.chunks.resize_with(chunk_count, Default::default);
-        &mut self.chunks
-    }
-
-    /// Groups the filled chunks' items by lane.
-    pub(crate) fn group(&mut self, net: &LaneNetwork) {
         self.lane_changers.clear();
         for chunk in &self.chunks {
             self.lane_changers.extend_from_slice(&chunk.lane_changers);
@@ -184,7 +160,7 @@ impl LaneIndex {
             chunks.iter().map(|c| c.blocked.as_slice()).collect();
         let by_rear =
             |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle));
-        if chunks.len() > 1 {
+        if chunk_count > 1 {
             rayon::join(
                 || {
                     occupants.rebuild_from_parts(lanes, &occupant_parts);

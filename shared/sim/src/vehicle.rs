@@ -114,8 +114,6 @@ pub struct Vehicle {
     pub front_offset: f64,
     /// (path[0], s) when the pose was last computed; NaN before the first.
     pub pose_at: (LaneId, f64),
-    /// (path[0], s, yaw) when `is_turning` was last computed; NaN before the first.
-    pub turning_at: (LaneId, f64, f64),
 
     // The rest of cognition's outputs.
     pub light_lane: Option<LaneId>,

@@ -7,18 +7,6 @@ use crate::vehicle::Vehicle;
 const CURVE_LOOKAHEAD: f64 = 40.0;
 const CURVE_THRESHOLD_DEG: f64 = 45.0;
 
-/// Updates `v.is_turning`, recomputed only when what it depends on changed:
-/// the lane, the position on it and the heading. The lanes within the 40 m
-/// window do not change while those stay (the path is always known at least
-/// 60 m ahead and only grows beyond that), so a queued vehicle keeps its value.
-pub fn refresh(net: &LaneNetwork, v: &mut Vehicle) {
-    let at = (v.path[0], v.s, v.pose.yaw);
-    if v.turning_at != at {
-        v.is_turning = is_turning(net, v);
-        v.turning_at = at;
-    }
-}
-
 /// IsTurning: the absolute heading changes along the path segments that start
 /// within 40 m ahead of the front bumper, starting from the vehicle's own
 /// heading, exceed 45°. Within a lane the sum comes from the precomputed

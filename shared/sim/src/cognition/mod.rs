@@ -39,6 +39,7 @@ pub struct Perception {
     pub distance_to_front: f64,
     /// Index of the vehicle that is the front obstacle, if one is.
     pub front_vehicle: Option<u32>,
+    pub is_turning: bool,
     pub light_lane: Option<LaneId>,
     pub distance_to_light: f64,
     pub passability: LightColor,
@@ -73,6 +74,7 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
     Perception {
         distance_to_front: front.distance,
         front_vehicle: front.vehicle,
+        is_turning: curve::is_turning(snap.net, v),
         light_lane: light.lane,
         distance_to_light: light.distance,
         passability: light.color,
@@ -88,6 +90,7 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
 impl Perception {
     pub fn apply(&self, v: &mut Vehicle) {
         v.distance_to_front = self.distance_to_front;
+        v.is_turning = self.is_turning;
         v.light_lane = self.light_lane;
         v.distance_to_light = self.distance_to_light;
         v.passability = self.passability;

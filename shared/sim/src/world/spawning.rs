@@ -218,7 +218,6 @@ impl World {
             speed_mode: Default::default(),
             pose: Pose::default(),
             pose_at: (LaneId::MAX, f64::NAN),
-            turning_at: (LaneId::MAX, f64::NAN, f64::NAN),
             front: DVec2::ZERO,
             back: DVec2::ZERO,
             heading: DVec2::X,

@@ -10,7 +10,7 @@ use super::phases::Phase;
 use crate::branching::{BranchChoice, BranchPolicy};
 use crate::cognition::path::advance_and_extend;
 use crate::cognition::right_of_way::RowInfo;
-use crate::cognition::{Perception, Snapshot, curve, deadlock, perceive};
+use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
@@ -59,7 +59,7 @@ impl World {
         self.phase_times.lap(Phase::Spawn);
         let any_flagged = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
-        self.index.group(&self.net);
+        self.index.rebuild(&self.net, &self.vehicles);
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
@@ -99,28 +99,22 @@ impl World {
 
     /// Lane advance and branch choices: parallel (each vehicle draws from its own
     /// random stream), then recorded in vehicle order. Takes each vehicle's
-    /// right-of-way facts and lane-index items in the same pass, while the
-    /// vehicle and its lanes are in cache (the index is grouped after).
-    /// Returns whether any vehicle is flagged for despawn.
+    /// right-of-way facts in the same pass. Returns whether any vehicle is
+    /// flagged for despawn.
     fn follow_lanes(&mut self) -> bool {
         let (net, policy) = (&self.net, &self.branch_policy);
         let motion = &self.config.vehicle;
         let flagged = AtomicBool::new(false);
         self.row.resize(self.vehicles.len(), RowInfo::default());
-        let chunks = self.index.chunks_for(self.vehicles.len());
         // Only the vehicles that made a choice come back (in vehicle order), so
         // the serial recording below costs the choices, not the vehicles.
         let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-            .zip(chunks.par_iter_mut())
-            .enumerate()
-            .flat_map_iter(|(c, ((vehicles, rows), items))| {
+            .flat_map_iter(|(vehicles, rows)| {
                 // In chunks, so that the loop can look at the vehicles ahead of it.
                 let mut chosen = Vec::new();
-                items.clear();
-                let first = (c * MIN_VEHICLES_PER_TASK) as u32;
                 for (k, row) in rows.iter_mut().enumerate() {
                     prefetch::paths_ahead(net, vehicles, k, 1);
                     let v = &mut vehicles[k];
@@ -131,7 +125,6 @@ impl World {
                     // Also for a vehicle about to leave: it is still perceived,
                     // and seen by others, this tick.
                     *row = RowInfo::of(v);
-                    items.push(net, v, first + k as u32);
                     if !made.is_empty() {
                         chosen.push((v.id, made));
                     }
@@ -325,9 +318,6 @@ fn move_vehicle(
     if v.should_despawn {
         return;
     }
-    // Curve detection reads only the vehicle's own path and pose, unchanged
-    // since cognition, so it runs here where it can reuse last tick's answer.
-    curve::refresh(net, v);
     v.speed_mode = decide(v, config);
     step_speed(net, v, config, dt);
     update_pose(net, v);
