@@ -39,7 +39,10 @@ mod tests {
         assert_ne!(a, b, "two calls in one process give two ports");
         for p in [a, b] {
             // The kernel's ephemeral range starts at 32768.
-            assert!((FIRST..FIRST + SPAN).contains(&u32::from(p)) && p < 32_768, "{p}");
+            assert!(
+                (FIRST..FIRST + SPAN).contains(&u32::from(p)) && p < 32_768,
+                "{p}"
+            );
             TcpListener::bind(("127.0.0.1", p)).expect("still free");
         }
     }
