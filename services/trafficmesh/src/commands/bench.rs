@@ -10,6 +10,7 @@ use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_sim::populate::populate;
 use trafficmesh_sim::{LaneNetwork, World, WorldConfig};
 
+use super::memory::{heap_bytes, resident_bytes};
 use super::thread_pool;
 use crate::output::print_summary;
 
@@ -63,26 +64,19 @@ struct TickReport {
     tick_p50_ms: f64,
     tick_p99_ms: f64,
     realtime_factor_at_dt_0_02: f64,
-    /// Resident memory added by the vehicles (after warm-up), per vehicle.
+    /// Resident memory added by the vehicles (after warm-up), per vehicle:
+    /// an upper figure that also counts the allocator's reserve.
     bytes_per_vehicle: f64,
+    /// Heap bytes in use added by the vehicles and the per-tick buffers they
+    /// size (after warm-up), per vehicle: the data itself (glibc only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    heap_bytes_per_vehicle: Option<f64>,
     /// With --phases: milliseconds per tick spent in each phase.
     #[serde(skip_serializing_if = "Option::is_none")]
     phase_ms_per_tick: Option<BTreeMap<&'static str, f64>>,
     /// With --phases: the share of the tick spent in phases that run on one thread.
     #[serde(skip_serializing_if = "Option::is_none")]
     serial_share: Option<f64>,
-}
-
-/// Resident set size of this process, bytes (Linux; 0 elsewhere).
-fn resident_bytes() -> u64 {
-    std::fs::read_to_string("/proc/self/status")
-        .ok()
-        .and_then(|s| {
-            s.lines()
-                .find(|l| l.starts_with("VmRSS:"))
-                .and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok())
-        })
-        .map_or(0, |kib| kib * 1024)
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
@@ -114,7 +108,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         },
     );
     // Everything allocated from here on (vehicles, per-tick buffers) counts per vehicle.
-    let rss_map = resident_bytes();
+    let (rss_map, heap_map) = (resident_bytes(), heap_bytes());
     let placed = populate(&mut world, a.vehicles);
     let pool = thread_pool(a.threads)?;
     let mut durations = Vec::with_capacity(a.ticks as usize);
@@ -136,7 +130,9 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             world.drain_events().for_each(drop);
         }
     });
-    let rss_traffic = resident_bytes();
+    let (rss_traffic, heap_traffic) = (resident_bytes(), heap_bytes());
+    let per_vehicle =
+        |before: u64, after: u64| after.saturating_sub(before) as f64 / placed.max(1) as f64;
     let total: f64 = durations.iter().sum();
     durations.sort_by(f64::total_cmp);
     let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
@@ -169,7 +165,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         tick_p50_ms: pct(0.5),
         tick_p99_ms: pct(0.99),
         realtime_factor_at_dt_0_02: 0.02 / (total / a.ticks as f64),
-        bytes_per_vehicle: rss_traffic.saturating_sub(rss_map) as f64 / placed.max(1) as f64,
+        bytes_per_vehicle: per_vehicle(rss_map, rss_traffic),
+        heap_bytes_per_vehicle: heap_map.zip(heap_traffic).map(|(a, b)| per_vehicle(a, b)),
         phase_ms_per_tick,
         serial_share,
     };

@@ -7,6 +7,7 @@ pub mod cluster_config;
 pub mod ego;
 pub mod gen_grid;
 pub mod import;
+mod memory;
 pub mod sim;
 pub mod up;
 pub mod watch;
