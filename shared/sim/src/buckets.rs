@@ -87,17 +87,6 @@ impl<T: Copy> Buckets<T> {
         }
     }
 
-    /// Asks for the first cache line of the key's items (its range should be
-    /// in cache already: see [`Buckets::prefetch_key`]).
-    pub fn prefetch_items(&self, key: u32) {
-        if let Some(&(start, end)) = self.ranges.get(key as usize)
-            && start < end
-            && let Some(first) = self.items.get(start as usize)
-        {
-            crate::prefetch::line(first);
-        }
-    }
-
     pub fn get(&self, key: u32) -> &[T] {
         let (a, b) = self.ranges[key as usize];
         &self.items[a as usize..b as usize]

@@ -77,9 +77,7 @@ impl ChunkItems {
         let items = &mut self.occupants;
         items.clear();
         self.lane_changers.clear();
-        for (k, (i, v)) in (first..).zip(some).enumerate() {
-            crate::prefetch::paths_ahead(net, some, k, 1);
-            crate::prefetch::geometry_ahead(net, some, k, crate::prefetch::Geometry::Conflicts);
+        for (i, v) in (first..).zip(some) {
             let body = |ghost| Occupant {
                 rear: v.rear_s(),
                 front: v.s,
@@ -208,13 +206,6 @@ impl LaneIndex {
     pub fn prefetch_lane(&self, lane: LaneId) {
         self.occupants.prefetch_key(lane);
         self.blocked.prefetch_key(lane);
-    }
-
-    /// Asks for the first occupants and zones of `lane`, once its entries
-    /// ([`LaneIndex::prefetch_lane`]) have arrived.
-    pub fn prefetch_lane_items(&self, lane: LaneId) {
-        self.occupants.prefetch_items(lane);
-        self.blocked.prefetch_items(lane);
     }
 }
 

@@ -83,7 +83,7 @@ impl World {
             .for_each(|(vehicles, perceptions)| {
                 for (k, p) in perceptions.iter().enumerate() {
                     prefetch::paths_ahead(net, vehicles, k, 1);
-                    prefetch::geometry_ahead(net, vehicles, k, prefetch::Geometry::Vertices);
+                    prefetch::vertices_ahead(net, vehicles, k);
                     move_vehicle(net, config, dt, &mut vehicles[k], p);
                 }
             });
