@@ -2,6 +2,7 @@
 //! one tick at a time. This is the NPCVehicleSimulator and the TrafficManager's
 //! spawn loop in one deterministic, I/O-free object.
 
+mod awake;
 mod phases;
 mod spawning;
 mod step;

@@ -6,6 +6,7 @@ use rayon::prelude::*;
 use trafficmesh_model::NpcVehicleConfig;
 
 use super::World;
+use super::awake::with_workers_awake;
 use super::phases::Phase;
 use crate::branching::{BranchChoice, BranchPolicy};
 use crate::cognition::path::advance_and_extend;
@@ -51,6 +52,16 @@ pub const MIN_VEHICLES_PER_TASK: usize = 1024;
 impl World {
     /// Advances the world by one tick of `config.dt` seconds.
     pub fn step(&mut self) {
+        // Below one task's worth of vehicles every phase runs on one thread:
+        // nothing for the other workers to wake for.
+        if self.vehicles.len() < MIN_VEHICLES_PER_TASK {
+            self.step_phases();
+        } else {
+            with_workers_awake(|| self.step_phases());
+        }
+    }
+
+    fn step_phases(&mut self) {
         let dt = self.config.dt;
         self.phase_times.begin();
         self.lights.update(self.time);
