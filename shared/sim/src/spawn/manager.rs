@@ -33,8 +33,11 @@ pub struct SpawnRequest {
     /// The winning simulator and its proposal slot.
     pub simulator: usize,
     pub slot: usize,
-    /// Every simulator that proposed at this spawn point (the winner included).
-    pub contenders: Vec<usize>,
+    /// The simulators of the other proposals at this spawn point (one may
+    /// appear more than once, the winner's too). Mostly empty, and then
+    /// without an allocation: the per-tick request list is long when a map
+    /// asks for hundreds of spawn attempts a tick.
+    pub rivals: Vec<usize>,
 }
 
 /// What the owner of the vehicles did with a request.
@@ -59,6 +62,9 @@ pub struct SpawnManager {
     spawn_rates: Vec<f64>,
     last_spawn: Vec<f64>,
     stats: SpawnStats,
+    /// Spawn point (lane) to its group number while planning, kept for the
+    /// allocation.
+    group_of: FxHashMap<LaneId, usize>,
 }
 
 impl SpawnManager {
@@ -80,6 +86,7 @@ impl SpawnManager {
             spawn_rates: vec![0.0; lanes],
             last_spawn: vec![f64::NEG_INFINITY; lanes],
             stats: SpawnStats::default(),
+            group_of: FxHashMap::default(),
         }
     }
 
@@ -141,8 +148,8 @@ impl SpawnManager {
         // Group by spawn point (the lane start), in first-insertion order: number
         // the groups as they first appear, then a stable sort by group keeps
         // the proposals of each group in order (no list per group).
-        let mut group_of: FxHashMap<LaneId, usize> = FxHashMap::default();
-        group_of.reserve(proposals.len());
+        let group_of = &mut self.group_of;
+        group_of.clear();
         let group: Vec<usize> = proposals
             .iter()
             .map(|(_, p)| {
@@ -181,7 +188,11 @@ impl SpawnManager {
                 route: p.route.clone(),
                 simulator: *si,
                 slot: p.slot,
-                contenders: members.iter().map(|&k| proposals[k].0).collect(),
+                rivals: members
+                    .iter()
+                    .filter(|&&k| k != winner)
+                    .map(|&k| proposals[k].0)
+                    .collect(),
             });
         }
         requests
@@ -195,8 +206,9 @@ impl SpawnManager {
             SpawnOutcome::Spawned => {
                 self.stats.spawned += 1;
                 self.last_spawn[request.lane as usize] = time;
-                if request.contenders.len() > 1 {
-                    for &si in &request.contenders {
+                // The losers gain one, the winner starts over.
+                if !request.rivals.is_empty() {
+                    for &si in &request.rivals {
                         if let Some(p) = self.priorities.get_mut(si) {
                             *p += 1;
                         }
