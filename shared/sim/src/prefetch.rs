@@ -65,13 +65,13 @@ fn lanes_of(net: &LaneNetwork, v: &Vehicle, lanes: usize) {
 }
 
 /// For a loop over `vehicles` at `i`: the path list of vehicle i + 2·AHEAD,
-/// and the first `lanes` lanes of vehicle i + AHEAD (whose list was asked for
-/// AHEAD iterations ago) with the lane it comes from.
+/// and the lane of vehicle i + AHEAD (whose list was asked for AHEAD
+/// iterations ago) with the lane it comes from.
 #[inline(always)]
-pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize, lanes: usize) {
+pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
     path_list(vehicles, i);
     if let Some(near) = vehicles.get(i + AHEAD) {
-        lanes_of(net, near, lanes);
+        lanes_of(net, near, 1);
     }
 }
 

@@ -93,7 +93,7 @@ impl World {
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
             .for_each(|(vehicles, perceptions)| {
                 for (k, p) in perceptions.iter().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k, 1);
+                    prefetch::paths_ahead(net, vehicles, k);
                     prefetch::vertices_ahead(net, vehicles, k);
                     move_vehicle(net, config, dt, &mut vehicles[k], p);
                 }
@@ -127,7 +127,7 @@ impl World {
                 // In chunks, so that the loop can look at the vehicles ahead of it.
                 let mut chosen = Vec::new();
                 for (k, row) in rows.iter_mut().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k, 1);
+                    prefetch::paths_ahead(net, vehicles, k);
                     let v = &mut vehicles[k];
                     let made = follow_lanes_of(net, policy, motion, v);
                     if v.should_despawn {
