@@ -8,7 +8,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
-use trafficmesh_sim::{SimEvent, TrajectoryHash, TripRecord, World, WorldConfig};
+use trafficmesh_sim::{SimEvent, TripRecord, World, WorldConfig};
 
 use super::thread_pool;
 use crate::output;
@@ -127,7 +127,6 @@ pub fn run(a: SimArgs) -> Result<()> {
             .expect("valid template"),
     );
 
-    let mut hash = TrajectoryHash::default();
     let mut trips: Vec<TripRecord> = Vec::new();
     let (mut vehicle_steps, mut peak, mut spawned, mut despawned) = (0u64, 0usize, 0u64, 0u64);
     let started = Instant::now();
@@ -137,7 +136,6 @@ pub fn run(a: SimArgs) -> Result<()> {
             let n = world.vehicles().len();
             vehicle_steps += n as u64;
             peak = peak.max(n);
-            hash.add_tick(world.vehicles());
             for event in world.drain_events() {
                 match event {
                     SimEvent::Spawned { .. } => spawned += 1,
@@ -183,7 +181,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         spawned,
         despawned,
         branch_decisions: world.branch_stats().total(),
-        trajectory_hash: format!("{:016x}", hash.finish()),
+        trajectory_hash: format!("{:016x}", world.trajectory_hash()),
     };
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);

@@ -22,6 +22,7 @@ use crate::lane_index::LaneIndex;
 use crate::lights::{LightControl, Lights};
 use crate::network::LaneNetwork;
 use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
+use crate::trajectory::TrajectoryHash;
 use crate::vehicle::{Vehicle, VehicleId};
 
 pub use phases::{Phase, PhaseTimes};
@@ -74,6 +75,8 @@ pub struct World {
     config: WorldConfig,
     time: f64,
     ticks: u64,
+    /// Every vehicle's pose at every tick since the world was built.
+    trajectory: TrajectoryHash,
     vehicles: Vec<Vehicle>,
     /// What others' right of way reads about each vehicle this tick, taken
     /// as it follows its lanes (kept for the allocation).
@@ -110,6 +113,7 @@ impl World {
             config,
             time: 0.0,
             ticks: 0,
+            trajectory: TrajectoryHash::default(),
             vehicles: Vec::new(),
             row: Vec::new(),
             junctions: JunctionBuckets::default(),
@@ -155,6 +159,12 @@ impl World {
     }
     pub fn ticks(&self) -> u64 {
         self.ticks
+    }
+    /// The [`TrajectoryHash`] of every tick since the world was built (the
+    /// motion step takes it): same map, config and seed, same hash, whatever
+    /// the thread count.
+    pub fn trajectory_hash(&self) -> u64 {
+        self.trajectory.finish()
     }
     /// Vehicles in spawn order (ascending id).
     pub fn vehicles(&self) -> &[Vehicle] {

@@ -18,6 +18,7 @@ use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
 use crate::network::{LaneId, LaneNetwork};
 use crate::prefetch;
+use crate::trajectory::pose_digest;
 use crate::vehicle::{Vehicle, VehicleId};
 use crate::visualization::update_trip;
 
@@ -88,16 +89,25 @@ impl World {
         self.phase_times.lap(Phase::Zebra);
         let (net, config) = (&self.net, &self.config.vehicle);
         // In chunks, so that each loop can look at the vehicles ahead of it.
-        self.vehicles
+        // Takes the trajectory digests of the vehicles that stay on the way.
+        let digest_sum = self
+            .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
-            .for_each(|(vehicles, perceptions)| {
+            .map(|(vehicles, perceptions)| {
+                let mut digest_sum = 0u64;
                 for (k, p) in perceptions.iter().enumerate() {
                     prefetch::paths_ahead(net, vehicles, k);
                     prefetch::vertices_ahead(net, vehicles, k);
-                    move_vehicle(net, config, dt, &mut vehicles[k], p);
+                    let v = &mut vehicles[k];
+                    move_vehicle(net, config, dt, v, p);
+                    if !v.should_despawn {
+                        digest_sum = digest_sum.wrapping_add(pose_digest(v));
+                    }
                 }
-            });
+                digest_sum
+            })
+            .reduce(|| 0, u64::wrapping_add);
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
@@ -105,6 +115,8 @@ impl World {
         if any_flagged {
             self.despawn_flagged();
         }
+        self.trajectory
+            .add_tick_digest(self.vehicles.len(), digest_sum);
         self.phase_times.lap(Phase::Despawn);
     }
 
