@@ -96,24 +96,52 @@ impl RowInfo {
 #[derive(Clone, Debug, Default)]
 pub struct JunctionBuckets {
     buckets: Buckets<u32>,
-    /// (junction, vehicle index), kept for the allocation.
-    members: Vec<(u32, u32)>,
+    /// (junction, vehicle index) per chunk of [`MIN_VEHICLES_PER_TASK`]
+    /// vehicles, noted by the pass that takes each vehicle's [`RowInfo`], while
+    /// it is at hand (kept for the allocations).
+    chunks: Vec<Vec<(u32, u32)>>,
 }
 
 impl JunctionBuckets {
-    pub fn rebuild(&mut self, net: &LaneNetwork, infos: &[RowInfo]) {
-        // Picked in parallel (rayon keeps the order), grouped on one thread.
-        self.members.clear();
-        self.members.par_extend(
-            infos
-                .par_iter()
-                .enumerate()
-                .with_min_len(MIN_VEHICLES_PER_TASK)
-                .filter(|(_, info)| info.considered)
-                .filter_map(|(i, info)| Some((info.junction?, i as u32))),
-        );
+    /// One emptied member list per chunk of `vehicle_count` vehicles, for
+    /// [`JunctionBuckets::note`]; then [`JunctionBuckets::group`].
+    pub fn chunk_lists(&mut self, vehicle_count: usize) -> &mut [Vec<(u32, u32)>] {
+        let count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
+        self.chunks.resize_with(count, Vec::new);
+        for list in &mut self.chunks {
+            list.clear();
+        }
+        &mut self.chunks
+    }
+
+    /// Notes vehicle `i` in its chunk's list if its junction considers it.
+    pub fn note(list: &mut Vec<(u32, u32)>, i: usize, info: &RowInfo) {
+        if info.considered
+            && let Some(junction) = info.junction
+        {
+            list.push((junction, i as u32));
+        }
+    }
+
+    /// Groups the noted members by junction.
+    pub fn group(&mut self, net: &LaneNetwork) {
         self.buckets
-            .rebuild(net.junction_count as usize, &self.members);
+            .rebuild_from_parts(net.junction_count as usize, &self.chunks);
+    }
+
+    /// Notes every vehicle again from `infos` and groups them: after lane
+    /// changes have changed some.
+    pub fn rebuild(&mut self, net: &LaneNetwork, infos: &[RowInfo]) {
+        self.chunk_lists(infos.len())
+            .par_iter_mut()
+            .zip(infos.par_chunks(MIN_VEHICLES_PER_TASK))
+            .enumerate()
+            .for_each(|(k, (list, infos))| {
+                for (j, info) in infos.iter().enumerate() {
+                    Self::note(list, k * MIN_VEHICLES_PER_TASK + j, info);
+                }
+            });
+        self.group(net);
     }
 
     pub(crate) fn of(&self, junction: Option<u32>) -> &[u32] {

@@ -10,7 +10,7 @@ use super::awake::with_workers_awake;
 use super::phases::Phase;
 use crate::branching::{BranchChoice, BranchPolicy};
 use crate::cognition::path::advance_and_extend;
-use crate::cognition::right_of_way::RowInfo;
+use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
@@ -71,10 +71,16 @@ impl World {
         self.phase_times.lap(Phase::Spawn);
         let any_flagged = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
-        self.index.rebuild(&self.net, &self.vehicles);
+        // The junctions' grouping runs beside the lane index's.
+        let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
+        rayon::join(
+            || index.rebuild(net, &self.vehicles),
+            || junctions.group(net),
+        );
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
+            self.junctions.rebuild(&self.net, &self.row);
         }
         self.phase_times.lap(Phase::LaneChanges);
 
@@ -131,11 +137,15 @@ impl World {
         self.row.resize(self.vehicles.len(), RowInfo::default());
         // Only the vehicles that made a choice come back (in vehicle order), so
         // the serial recording below costs the choices, not the vehicles.
+        // Each chunk also notes its vehicles that their junction considers.
+        let members = self.junctions.chunk_lists(self.vehicles.len());
         let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-            .flat_map_iter(|(vehicles, rows)| {
+            .zip(members)
+            .enumerate()
+            .flat_map_iter(|(c, ((vehicles, rows), members))| {
                 // In chunks, so that the loop can look at the vehicles ahead of it.
                 let mut chosen = Vec::new();
                 for (k, row) in rows.iter_mut().enumerate() {
@@ -148,6 +158,7 @@ impl World {
                     // Also for a vehicle about to leave: it is still perceived,
                     // and seen by others, this tick.
                     *row = RowInfo::of(v);
+                    JunctionBuckets::note(members, c * MIN_VEHICLES_PER_TASK + k, row);
                     if !made.is_empty() {
                         chosen.push((v.id, made));
                     }
@@ -211,7 +222,6 @@ impl World {
     /// Parallel perception of every vehicle from the same snapshot, with whom
     /// each is waiting for (for deadlock breaking), into the buffers given.
     fn cognition(&mut self, perceptions: &mut Vec<Perception>, waits: &mut Vec<deadlock::Wait>) {
-        self.junctions.rebuild(&self.net, &self.row);
         let net = &self.net;
         let row = &self.row;
         let snap = Snapshot {
