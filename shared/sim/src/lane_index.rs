@@ -9,7 +9,7 @@ use crate::vehicle::Vehicle;
 use crate::world::MIN_VEHICLES_PER_TASK;
 
 /// One vehicle's body on one lane.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Occupant {
     /// Arc lengths of the rear and front bumpers on this lane (may lie outside it).
     pub rear: f64,
@@ -25,7 +25,7 @@ pub struct Occupant {
 }
 
 /// A vehicle body standing in a conflict zone of a lane that is not its own.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BlockedZone {
     /// The zone on the blocked lane, arc lengths.
     pub start: f64,
@@ -71,34 +71,43 @@ struct ChunkItems {
 }
 
 impl ChunkItems {
-    /// Bodies (and ghosts) of `some`, the vehicles from index `first` on, and
-    /// the conflict zones their bodies block.
-    fn fill(&mut self, net: &LaneNetwork, some: &[Vehicle], first: u32) {
-        let items = &mut self.occupants;
-        items.clear();
+    fn clear(&mut self) {
+        self.occupants.clear();
+        self.blocked.clear();
         self.lane_changers.clear();
+    }
+
+    /// Bodies of `some`, the vehicles from index `first` on (see [`ChunkItems::add`]).
+    fn fill(&mut self, net: &LaneNetwork, some: &[Vehicle], first: u32) {
+        self.clear();
         for (i, v) in (first..).zip(some) {
-            let body = |ghost| Occupant {
-                rear: v.rear_s(),
-                front: v.s,
-                speed: v.speed,
-                vehicle: i,
-                ghost,
-            };
-            items.push((v.path[0], body(false)));
-            if let Some(target) = v.lane_change {
-                self.lane_changers.push(i);
-                items.push((target, body(true)));
-            }
-            if v.rear_s() < 0.0
-                && let Some(p) = v.prev_lane
-            {
-                push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
-            }
+            self.add(net, v, i);
+        }
+    }
+
+    /// The body (and ghost) of vehicle `i`, and the conflict zones its body blocks.
+    fn add(&mut self, net: &LaneNetwork, v: &Vehicle, i: u32) {
+        let items = &mut self.occupants;
+        let first_item = items.len();
+        let body = |ghost| Occupant {
+            rear: v.rear_s(),
+            front: v.s,
+            speed: v.speed,
+            vehicle: i,
+            ghost,
+        };
+        items.push((v.path[0], body(false)));
+        if let Some(target) = v.lane_change {
+            self.lane_changers.push(i);
+            items.push((target, body(true)));
+        }
+        if v.rear_s() < 0.0
+            && let Some(p) = v.prev_lane
+        {
+            push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
         }
         let blocked = &mut self.blocked;
-        blocked.clear();
-        for &(lane, occ) in items.iter().filter(|(_, o)| !o.ghost) {
+        for &(lane, occ) in items[first_item..].iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
                 // Sorted by zone start: the rest lie beyond the front.
                 if c.a0 > occ.front {
@@ -115,12 +124,24 @@ impl ChunkItems {
                             vehicle: occ.vehicle,
                             road: c.road,
                             room: c.room,
-                            width: some[(occ.vehicle - first) as usize].width,
+                            width: v.width,
                         },
                     ));
                 }
             }
         }
+    }
+}
+
+/// The items of one chunk of vehicles, taken by the pass over them that
+/// comes before the index is grouped (see [`LaneIndex::chunk_fillers`]).
+pub struct ChunkFiller<'a> {
+    items: &'a mut ChunkItems,
+}
+
+impl ChunkFiller<'_> {
+    pub fn add(&mut self, net: &LaneNetwork, v: &Vehicle, i: usize) {
+        self.items.add(net, v, i as u32);
     }
 }
 
@@ -133,6 +154,8 @@ impl LaneIndex {
         }
     }
 
+    /// Takes every vehicle's items and groups them. (A tick takes the items
+    /// in its lane-following pass instead: [`LaneIndex::chunk_fillers`].)
     pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
         // Items per chunk of vehicles in parallel, then joined in vehicle order,
         // so the result does not depend on the thread count.
@@ -145,6 +168,27 @@ impl LaneIndex {
             .for_each(|(k, (chunk, some))| {
                 chunk.fill(net, some, (k * MIN_VEHICLES_PER_TASK) as u32)
             });
+        self.group(net);
+    }
+
+    /// One emptied item list per chunk of [`MIN_VEHICLES_PER_TASK`] of
+    /// `vehicle_count` vehicles, for a pass over the vehicles to fill; then
+    /// [`LaneIndex::group`].
+    pub fn chunk_fillers(
+        &mut self,
+        vehicle_count: usize,
+    ) -> impl IndexedParallelIterator<Item = ChunkFiller<'_>> {
+        let chunk_count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
+        self.chunks.resize_with(chunk_count, Default::default);
+        self.chunks.par_iter_mut().map(|items| {
+            items.clear();
+            ChunkFiller { items }
+        })
+    }
+
+    /// Groups the chunks' items by lane.
+    pub fn group(&mut self, net: &LaneNetwork) {
+        let chunk_count = self.chunks.len();
         self.lane_changers.clear();
         for chunk in &self.chunks {
             self.lane_changers.extend_from_slice(&chunk.lane_changers);

@@ -71,12 +71,10 @@ impl World {
         self.phase_times.lap(Phase::Spawn);
         let any_flagged = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
-        // The junctions' grouping runs beside the lane index's.
+        // The lane-following pass took the items of both; the junctions'
+        // grouping runs beside the lane index's.
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
-        rayon::join(
-            || index.rebuild(net, &self.vehicles),
-            || junctions.group(net),
-        );
+        rayon::join(|| index.group(net), || junctions.group(net));
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
@@ -127,9 +125,11 @@ impl World {
     }
 
     /// Lane advance and branch choices: parallel (each vehicle draws from its own
-    /// random stream), then recorded in vehicle order. Takes each vehicle's
-    /// right-of-way facts in the same pass. Returns whether any vehicle is
-    /// flagged for despawn.
+    /// random stream), then recorded in vehicle order. Takes in the same pass,
+    /// while each vehicle is at hand, its right-of-way facts, its junction
+    /// membership and its lane-index items (a pass of their own each cost
+    /// more: the vehicles' lines and paths read again). Returns whether any
+    /// vehicle is flagged for despawn.
     fn follow_lanes(&mut self) -> bool {
         let (net, policy) = (&self.net, &self.branch_policy);
         let motion = &self.config.vehicle;
@@ -137,34 +137,39 @@ impl World {
         self.row.resize(self.vehicles.len(), RowInfo::default());
         // Only the vehicles that made a choice come back (in vehicle order), so
         // the serial recording below costs the choices, not the vehicles.
-        // Each chunk also notes its vehicles that their junction considers.
-        let members = self.junctions.chunk_lists(self.vehicles.len());
+        let n = self.vehicles.len();
+        let junction_lists = self.junctions.chunk_lists(n);
         let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-            .zip(members)
+            .zip(junction_lists)
+            .zip(self.index.chunk_fillers(n))
             .enumerate()
-            .flat_map_iter(|(c, ((vehicles, rows), members))| {
-                // In chunks, so that the loop can look at the vehicles ahead of it.
-                let mut chosen = Vec::new();
-                for (k, row) in rows.iter_mut().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k);
-                    let v = &mut vehicles[k];
-                    let made = follow_lanes_of(net, policy, motion, v);
-                    if v.should_despawn {
-                        flagged.store(true, Ordering::Relaxed);
+            .flat_map_iter(
+                |(c, (((vehicles, rows), junction_list), mut index_items))| {
+                    // In chunks, so that the loop can look at the vehicles ahead of it.
+                    let mut chosen = Vec::new();
+                    for (k, row) in rows.iter_mut().enumerate() {
+                        let i = c * MIN_VEHICLES_PER_TASK + k;
+                        prefetch::paths_ahead(net, vehicles, k);
+                        let v = &mut vehicles[k];
+                        let made = follow_lanes_of(net, policy, motion, v);
+                        if v.should_despawn {
+                            flagged.store(true, Ordering::Relaxed);
+                        }
+                        // Also for a vehicle about to leave: it is still perceived,
+                        // and seen by others, this tick.
+                        *row = RowInfo::of(v);
+                        JunctionBuckets::note(junction_list, i, row);
+                        index_items.add(net, v, i);
+                        if !made.is_empty() {
+                            chosen.push((v.id, made));
+                        }
                     }
-                    // Also for a vehicle about to leave: it is still perceived,
-                    // and seen by others, this tick.
-                    *row = RowInfo::of(v);
-                    JunctionBuckets::note(members, c * MIN_VEHICLES_PER_TASK + k, row);
-                    if !made.is_empty() {
-                        chosen.push((v.id, made));
-                    }
-                }
-                chosen
-            })
+                    chosen
+                },
+            )
             .collect();
         for (id, made) in decisions {
             for choice in made {
@@ -355,4 +360,76 @@ fn move_vehicle(
     step_speed(net, v, config, dt);
     update_pose(net, v);
     update_trip(v, dt);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::lane_index::LaneIndex;
+    use crate::populate::populate;
+    use crate::{World, WorldConfig};
+    use trafficmesh_maps::{GridOptions, grid_map};
+
+    /// The lane index and the junction members a tick takes in its
+    /// lane-following pass are those a pass of their own would take.
+    #[test]
+    fn the_items_taken_while_following_lanes_match_a_rebuild() {
+        let map = grid_map(&GridOptions {
+            size: 6,
+            ..GridOptions::default()
+        });
+        let net = LaneNetwork::build(&map).expect("grid map builds");
+        let config = WorldConfig {
+            max_vehicles: 3000,
+            ..WorldConfig::default()
+        };
+        let mut world = World::new(net, config);
+        // More than one chunk of vehicles, so that the chunks are joined.
+        populate(&mut world, 2 * MIN_VEHICLES_PER_TASK + 100);
+        assert!(world.vehicles.len() > 2 * MIN_VEHICLES_PER_TASK);
+        let mut checked_later_chunks = false;
+        for tick in 0..2000 {
+            world.step();
+            if tick % 500 != 499 {
+                continue;
+            }
+            // What the next tick's cognition would read, taken afresh.
+            world.follow_lanes();
+            let (net, vehicles) = (&world.net, &world.vehicles);
+            world.index.group(net);
+            world.junctions.group(net);
+            let mut index = LaneIndex::empty(net.lanes.len());
+            index.rebuild(net, vehicles);
+            let mut junctions = JunctionBuckets::default();
+            junctions.rebuild(net, &world.row);
+            for lane in 0..net.lanes.len() as LaneId {
+                assert_eq!(
+                    index.on_lane(lane),
+                    world.index.on_lane(lane),
+                    "lane {lane}"
+                );
+                assert_eq!(
+                    index.blocked_zones(lane),
+                    world.index.blocked_zones(lane),
+                    "lane {lane}"
+                );
+            }
+            assert_eq!(index.lane_changers(), world.index.lane_changers());
+            let beyond_first_chunk = (0..net.junction_count)
+                .flat_map(|j| junctions.of(Some(j)))
+                .any(|&i| i as usize >= MIN_VEHICLES_PER_TASK);
+            checked_later_chunks |= beyond_first_chunk;
+            for j in 0..net.junction_count {
+                assert_eq!(
+                    junctions.of(Some(j)),
+                    world.junctions.of(Some(j)),
+                    "junction {j}"
+                );
+            }
+        }
+        assert!(
+            checked_later_chunks,
+            "junction members beyond the first chunk"
+        );
+    }
 }
