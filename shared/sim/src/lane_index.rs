@@ -186,6 +186,17 @@ impl LaneIndex {
         })
     }
 
+    /// The item list of chunk `k`, as it is (for vehicles added after a pass
+    /// over the others filled the lists).
+    pub fn chunk_filler(&mut self, k: usize) -> ChunkFiller<'_> {
+        if self.chunks.len() <= k {
+            self.chunks.resize_with(k + 1, Default::default);
+        }
+        ChunkFiller {
+            items: &mut self.chunks[k],
+        }
+    }
+
     /// Groups the chunks' items by lane.
     pub fn group(&mut self, net: &LaneNetwork) {
         let chunk_count = self.chunks.len();

@@ -114,6 +114,15 @@ impl JunctionBuckets {
         &mut self.chunks
     }
 
+    /// The member list of chunk `k`, as it is (for vehicles added after a
+    /// pass over the others filled the lists).
+    pub fn chunk_list(&mut self, k: usize) -> &mut Vec<(u32, u32)> {
+        if self.chunks.len() <= k {
+            self.chunks.resize_with(k + 1, Vec::new);
+        }
+        &mut self.chunks[k]
+    }
+
     /// Notes vehicle `i` in its chunk's list if its junction considers it.
     pub fn note(list: &mut Vec<(u32, u32)>, i: usize, info: &RowInfo) {
         if info.considered

@@ -77,6 +77,10 @@ pub struct World {
     ticks: u64,
     /// Every vehicle's pose at every tick since the world was built.
     trajectory: TrajectoryHash,
+    /// The next tick's lane following, done by the last motion pass for the
+    /// vehicles before this index (see `step.rs`); dropped by anything that
+    /// would change it.
+    prefollowed: Option<(usize, step::Followed)>,
     vehicles: Vec<Vehicle>,
     /// What others' right of way reads about each vehicle this tick, taken
     /// as it follows its lanes (kept for the allocation).
@@ -114,6 +118,7 @@ impl World {
             time: 0.0,
             ticks: 0,
             trajectory: TrajectoryHash::default(),
+            prefollowed: None,
             vehicles: Vec::new(),
             row: Vec::new(),
             junctions: JunctionBuckets::default(),
@@ -224,6 +229,8 @@ impl World {
         config.validate(|name| self.net.lane_id(name).is_some())?;
         self.spawner.set_rates(&self.net, &config);
         self.branch_policy = BranchPolicy::from_config(&self.net, &config);
+        // Branch choices made ahead were made with the old weights.
+        self.prefollowed = None;
         self.spawn_config = Some(config);
         Ok(())
     }
@@ -341,6 +348,8 @@ impl World {
     /// RemoveVehiclesInRadius: flags every vehicle whose origin is within `radius`
     /// of `center` (3D) and returns how many; they are gone after the next tick.
     pub fn remove_vehicles_in_radius(&mut self, center: DVec3, radius: f64) -> usize {
+        // A vehicle leaving is not followed, and the list will shift.
+        self.prefollowed = None;
         let mut count = 0;
         for v in &mut self.vehicles {
             let p = DVec3::new(v.pose.x, v.pose.y, v.pose.z);
@@ -355,6 +364,8 @@ impl World {
 
     /// Removes one vehicle by id on the next tick; returns 1 if it existed.
     pub fn remove_vehicle(&mut self, id: VehicleId) -> usize {
+        // A vehicle leaving is not followed, and the list will shift.
+        self.prefollowed = None;
         match self.vehicles.binary_search_by_key(&id, |v| v.id) {
             Ok(i) if !self.vehicles[i].should_despawn => {
                 let v = &mut self.vehicles[i];
@@ -375,6 +386,7 @@ impl World {
     /// starts again with a new maximum vehicle count. The ego, the spawn config,
     /// the branch statistics and added simulators are kept; ids keep counting.
     pub fn restart(&mut self, max_vehicles: usize) {
+        self.prefollowed = None;
         let time = self.time;
         for v in self.vehicles.drain(..) {
             self.events.push(SimEvent::Despawned(step::trip_record(

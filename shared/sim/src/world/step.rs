@@ -1,7 +1,5 @@
 //! One tick: spawn, Cognition, Decision, Control, Visualization, despawn.
 
-use std::sync::atomic::{AtomicBool, Ordering};
-
 use rayon::prelude::*;
 use trafficmesh_model::NpcVehicleConfig;
 
@@ -16,6 +14,7 @@ use crate::control::{step_speed, update_pose};
 use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
+use crate::lane_index::ChunkFiller;
 use crate::network::{LaneId, LaneNetwork};
 use crate::prefetch;
 use crate::trajectory::pose_digest;
@@ -91,27 +90,56 @@ impl World {
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
-        let (net, config) = (&self.net, &self.config.vehicle);
+        // With no vehicle leaving at the end of this tick, the vehicles stay
+        // where they are in the list, so the motion pass also does the next
+        // tick's lane following while each vehicle is at hand.
+        let fuse = !any_flagged;
+        let n = self.vehicles.len();
+        let follow = Follow {
+            net: &self.net,
+            policy: &self.branch_policy,
+            motion: &self.config.vehicle,
+        };
         // In chunks, so that each loop can look at the vehicles ahead of it.
         // Takes the trajectory digests of the vehicles that stay on the way.
-        let digest_sum = self
+        let chunks: Vec<(u64, Followed)> = self
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
-            .map(|(vehicles, perceptions)| {
-                let mut digest_sum = 0u64;
-                for (k, p) in perceptions.iter().enumerate() {
-                    prefetch::paths_ahead(net, vehicles, k);
-                    prefetch::vertices_ahead(net, vehicles, k);
-                    let v = &mut vehicles[k];
-                    move_vehicle(net, config, dt, v, p);
-                    if !v.should_despawn {
-                        digest_sum = digest_sum.wrapping_add(pose_digest(v));
+            .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+            .zip(self.junctions.chunk_lists(n))
+            .zip(self.index.chunk_fillers(n))
+            .enumerate()
+            .map(
+                |(c, ((((vehicles, perceptions), rows), junction_list), mut index_items))| {
+                    let (net, config) = (follow.net, follow.motion);
+                    let mut digest_sum = 0u64;
+                    let mut followed = Followed::default();
+                    for (k, p) in perceptions.iter().enumerate() {
+                        prefetch::paths_ahead(net, vehicles, k);
+                        prefetch::vertices_ahead(net, vehicles, k);
+                        let v = &mut vehicles[k];
+                        move_vehicle(net, config, dt, v, p);
+                        if !v.should_despawn {
+                            digest_sum = digest_sum.wrapping_add(pose_digest(v));
+                        }
+                        if fuse {
+                            let i = c * MIN_VEHICLES_PER_TASK + k;
+                            let lists = (&mut rows[k], &mut *junction_list, &mut index_items);
+                            follow.vehicle(v, i, lists, &mut followed);
+                        }
                     }
-                }
-                digest_sum
-            })
-            .reduce(|| 0, u64::wrapping_add);
+                    (digest_sum, followed)
+                },
+            )
+            .collect();
+        let mut digest_sum = 0u64;
+        let mut followed = Followed::default();
+        for (digest, chunk) in chunks {
+            digest_sum = digest_sum.wrapping_add(digest);
+            followed.append(chunk);
+        }
+        self.prefollowed = fuse.then_some((n, followed));
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
@@ -128,56 +156,66 @@ impl World {
     /// random stream), then recorded in vehicle order. Takes in the same pass,
     /// while each vehicle is at hand, its right-of-way facts, its junction
     /// membership and its lane-index items (a pass of their own each cost
-    /// more: the vehicles' lines and paths read again). Returns whether any
-    /// vehicle is flagged for despawn.
+    /// more: the vehicles' lines and paths read again). When the last motion
+    /// pass did this for the vehicles it moved, only those added since are
+    /// left. Returns whether any vehicle is flagged for despawn.
     fn follow_lanes(&mut self) -> bool {
-        let (net, policy) = (&self.net, &self.branch_policy);
-        let motion = &self.config.vehicle;
-        let flagged = AtomicBool::new(false);
-        self.row.resize(self.vehicles.len(), RowInfo::default());
-        // Only the vehicles that made a choice come back (in vehicle order), so
-        // the serial recording below costs the choices, not the vehicles.
         let n = self.vehicles.len();
-        let junction_lists = self.junctions.chunk_lists(n);
-        let decisions: Vec<(VehicleId, Vec<BranchChoice>)> = self
-            .vehicles
-            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-            .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-            .zip(junction_lists)
-            .zip(self.index.chunk_fillers(n))
-            .enumerate()
-            .flat_map_iter(
-                |(c, (((vehicles, rows), junction_list), mut index_items))| {
-                    // In chunks, so that the loop can look at the vehicles ahead of it.
-                    let mut chosen = Vec::new();
-                    for (k, row) in rows.iter_mut().enumerate() {
-                        let i = c * MIN_VEHICLES_PER_TASK + k;
-                        prefetch::paths_ahead(net, vehicles, k);
-                        let v = &mut vehicles[k];
-                        let made = follow_lanes_of(net, policy, motion, v);
-                        if v.should_despawn {
-                            flagged.store(true, Ordering::Relaxed);
-                        }
-                        // Also for a vehicle about to leave: it is still perceived,
-                        // and seen by others, this tick.
-                        *row = RowInfo::of(v);
-                        JunctionBuckets::note(junction_list, i, row);
-                        index_items.add(net, v, i);
-                        if !made.is_empty() {
-                            chosen.push((v.id, made));
-                        }
-                    }
-                    chosen
-                },
-            )
-            .collect();
-        for (id, made) in decisions {
+        self.row.resize(n, RowInfo::default());
+        let follow = Follow {
+            net: &self.net,
+            policy: &self.branch_policy,
+            motion: &self.config.vehicle,
+        };
+        let followed = match self.prefollowed.take() {
+            Some((done, mut followed)) => {
+                for i in done..n {
+                    let k = i / MIN_VEHICLES_PER_TASK;
+                    let lists = (
+                        &mut self.row[i],
+                        self.junctions.chunk_list(k),
+                        &mut self.index.chunk_filler(k),
+                    );
+                    follow.vehicle(&mut self.vehicles[i], i, lists, &mut followed);
+                }
+                followed
+            }
+            None => {
+                let chunks: Vec<Followed> = self
+                    .vehicles
+                    .par_chunks_mut(MIN_VEHICLES_PER_TASK)
+                    .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+                    .zip(self.junctions.chunk_lists(n))
+                    .zip(self.index.chunk_fillers(n))
+                    .enumerate()
+                    .map(
+                        |(c, (((vehicles, rows), junction_list), mut index_items))| {
+                            // In chunks, so that the loop can look at the vehicles ahead of it.
+                            let mut followed = Followed::default();
+                            for (k, row) in rows.iter_mut().enumerate() {
+                                prefetch::paths_ahead(follow.net, vehicles, k);
+                                let i = c * MIN_VEHICLES_PER_TASK + k;
+                                let lists = (row, &mut *junction_list, &mut index_items);
+                                follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
+                            }
+                            followed
+                        },
+                    )
+                    .collect();
+                let mut followed = Followed::default();
+                for chunk in chunks {
+                    followed.append(chunk);
+                }
+                followed
+            }
+        };
+        for (id, made) in followed.decisions {
             for choice in made {
                 self.branch_stats.record(&choice);
                 self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }
-        flagged.into_inner()
+        followed.flagged
     }
 
     /// The lane changes routes need, where there is a gap (or where two
@@ -315,6 +353,53 @@ impl World {
     }
 }
 
+/// What lane following reads besides the vehicle.
+struct Follow<'a> {
+    net: &'a LaneNetwork,
+    policy: &'a BranchPolicy,
+    motion: &'a NpcVehicleConfig,
+}
+
+/// What lane following of some vehicles brings back: the branch choices
+/// made (only the vehicles that made one, in vehicle order, so that the
+/// serial recording costs the choices, not the vehicles) and whether any
+/// vehicle is flagged for despawn.
+#[derive(Default)]
+pub(super) struct Followed {
+    decisions: Vec<(VehicleId, Vec<BranchChoice>)>,
+    flagged: bool,
+}
+
+impl Followed {
+    fn append(&mut self, mut later: Followed) {
+        self.decisions.append(&mut later.decisions);
+        self.flagged |= later.flagged;
+    }
+}
+
+impl Follow<'_> {
+    /// Lane following of vehicle `i`, with what the tick takes in the same
+    /// pass: its right-of-way facts, junction membership and lane-index items.
+    fn vehicle(
+        &self,
+        v: &mut Vehicle,
+        i: usize,
+        (row, junction_list, index_items): (&mut RowInfo, &mut Vec<(u32, u32)>, &mut ChunkFiller),
+        followed: &mut Followed,
+    ) {
+        let made = follow_lanes_of(self.net, self.policy, self.motion, v);
+        followed.flagged |= v.should_despawn;
+        // Also for a vehicle about to leave: it is still perceived, and seen
+        // by others, this tick.
+        *row = RowInfo::of(v);
+        JunctionBuckets::note(junction_list, i, row);
+        index_items.add(self.net, v, i);
+        if !made.is_empty() {
+            followed.decisions.push((v.id, made));
+        }
+    }
+}
+
 /// Lane advance and branch choices of one vehicle (none for one already
 /// leaving), with what follows from them; returns the choices made.
 fn follow_lanes_of(
@@ -387,49 +472,67 @@ mod tests {
         // More than one chunk of vehicles, so that the chunks are joined.
         populate(&mut world, 2 * MIN_VEHICLES_PER_TASK + 100);
         assert!(world.vehicles.len() > 2 * MIN_VEHICLES_PER_TASK);
-        let mut checked_later_chunks = false;
+        let (mut checked_later_chunks, mut fused_ticks, mut spawned) = (false, 0, 0);
         for tick in 0..2000 {
             world.step();
             if tick % 500 != 499 {
                 continue;
             }
-            // What the next tick's cognition would read, taken afresh.
-            world.follow_lanes();
-            let (net, vehicles) = (&world.net, &world.vehicles);
-            world.index.group(net);
-            world.junctions.group(net);
-            let mut index = LaneIndex::empty(net.lanes.len());
-            index.rebuild(net, vehicles);
-            let mut junctions = JunctionBuckets::default();
-            junctions.rebuild(net, &world.row);
-            for lane in 0..net.lanes.len() as LaneId {
-                assert_eq!(
-                    index.on_lane(lane),
-                    world.index.on_lane(lane),
-                    "lane {lane}"
-                );
-                assert_eq!(
-                    index.blocked_zones(lane),
-                    world.index.blocked_zones(lane),
-                    "lane {lane}"
-                );
+            // What the next tick's cognition would read, taken by the last
+            // motion pass when it could, and else by a pass of its own.
+            fused_ticks += usize::from(world.prefollowed.is_some());
+            // Vehicles spawned after the motion pass are followed on their own.
+            let before = world.vehicles.len();
+            world.spawn_phase();
+            spawned += world.vehicles.len() - before;
+            for _ in 0..2 {
+                world.follow_lanes();
+                assert_the_index_and_junctions_match_a_rebuild(&mut world);
+                world.prefollowed = None;
             }
-            assert_eq!(index.lane_changers(), world.index.lane_changers());
-            let beyond_first_chunk = (0..net.junction_count)
-                .flat_map(|j| junctions.of(Some(j)))
-                .any(|&i| i as usize >= MIN_VEHICLES_PER_TASK);
-            checked_later_chunks |= beyond_first_chunk;
-            for j in 0..net.junction_count {
-                assert_eq!(
-                    junctions.of(Some(j)),
-                    world.junctions.of(Some(j)),
-                    "junction {j}"
-                );
-            }
+            checked_later_chunks |= junction_members_beyond_the_first_chunk(&world);
         }
+        assert!(fused_ticks > 0, "the motion pass followed the lanes");
+        assert!(spawned > 0, "vehicles spawned after the motion pass");
         assert!(
             checked_later_chunks,
             "junction members beyond the first chunk"
         );
+    }
+
+    fn junction_members_beyond_the_first_chunk(world: &World) -> bool {
+        (0..world.net.junction_count)
+            .flat_map(|j| world.junctions.of(Some(j)))
+            .any(|&i| i as usize >= MIN_VEHICLES_PER_TASK)
+    }
+
+    fn assert_the_index_and_junctions_match_a_rebuild(world: &mut World) {
+        let (net, vehicles) = (&world.net, &world.vehicles);
+        world.index.group(net);
+        world.junctions.group(net);
+        let mut index = LaneIndex::empty(net.lanes.len());
+        index.rebuild(net, vehicles);
+        let mut junctions = JunctionBuckets::default();
+        junctions.rebuild(net, &world.row);
+        for lane in 0..net.lanes.len() as LaneId {
+            assert_eq!(
+                index.on_lane(lane),
+                world.index.on_lane(lane),
+                "lane {lane}"
+            );
+            assert_eq!(
+                index.blocked_zones(lane),
+                world.index.blocked_zones(lane),
+                "lane {lane}"
+            );
+        }
+        assert_eq!(index.lane_changers(), world.index.lane_changers());
+        for j in 0..net.junction_count {
+            assert_eq!(
+                junctions.of(Some(j)),
+                world.junctions.of(Some(j)),
+                "junction {j}"
+            );
+        }
     }
 }
