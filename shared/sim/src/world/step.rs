@@ -118,6 +118,7 @@ impl World {
                     for (k, p) in perceptions.iter().enumerate() {
                         prefetch::paths_ahead(net, vehicles, k);
                         prefetch::vertices_ahead(net, vehicles, k);
+                        prefetch::conflicts_ahead(net, vehicles, k);
                         let v = &mut vehicles[k];
                         move_vehicle(net, config, dt, v, p);
                         if !v.should_despawn {
@@ -194,6 +195,7 @@ impl World {
                             let mut followed = Followed::default();
                             for (k, row) in rows.iter_mut().enumerate() {
                                 prefetch::paths_ahead(follow.net, vehicles, k);
+                                prefetch::conflicts_ahead(follow.net, vehicles, k);
                                 let i = c * MIN_VEHICLES_PER_TASK + k;
                                 let lists = (row, &mut *junction_list, &mut index_items);
                                 follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
