@@ -186,14 +186,14 @@ impl LaneIndex {
         })
     }
 
-    /// The item list of chunk `k`, as it is (for vehicles added after a pass
-    /// over the others filled the lists).
-    pub fn chunk_filler(&mut self, k: usize) -> ChunkFiller<'_> {
-        if self.chunks.len() <= k {
-            self.chunks.resize_with(k + 1, Default::default);
+    /// The last chunk's item list, as it is (for vehicles added after a pass
+    /// over the others filled the lists: their items go after all others).
+    pub fn last_filler(&mut self) -> ChunkFiller<'_> {
+        if self.chunks.is_empty() {
+            self.chunks.push(ChunkItems::default());
         }
         ChunkFiller {
-            items: &mut self.chunks[k],
+            items: self.chunks.last_mut().expect("one list at least"),
         }
     }
 

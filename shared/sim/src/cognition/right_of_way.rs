@@ -114,13 +114,13 @@ impl JunctionBuckets {
         &mut self.chunks
     }
 
-    /// The member list of chunk `k`, as it is (for vehicles added after a
-    /// pass over the others filled the lists).
-    pub fn chunk_list(&mut self, k: usize) -> &mut Vec<(u32, u32)> {
-        if self.chunks.len() <= k {
-            self.chunks.resize_with(k + 1, Vec::new);
+    /// The last chunk's member list, as it is (for vehicles added after a
+    /// pass over the others filled the lists: they go after all others).
+    pub fn last_list(&mut self) -> &mut Vec<(u32, u32)> {
+        if self.chunks.is_empty() {
+            self.chunks.push(Vec::new());
         }
-        &mut self.chunks[k]
+        self.chunks.last_mut().expect("one list at least")
     }
 
     /// Notes vehicle `i` in its chunk's list if its junction considers it.

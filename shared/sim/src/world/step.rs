@@ -68,7 +68,7 @@ impl World {
         self.phase_times.lap(Phase::Lights);
         self.spawn_phase();
         self.phase_times.lap(Phase::Spawn);
-        let any_flagged = self.follow_lanes();
+        let leaving = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
         // The lane-following pass took the items of both; the junctions'
         // grouping runs beside the lane index's.
@@ -90,11 +90,29 @@ impl World {
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
-        // With no vehicle leaving at the end of this tick, the vehicles stay
-        // where they are in the list, so the motion pass also does the next
-        // tick's lane following while each vehicle is at hand.
-        let fuse = !any_flagged;
+        // The motion pass also does the next tick's lane following while each
+        // vehicle is at hand, for the vehicles that stay: at the index each
+        // will have once those leaving at the end of this tick are gone.
         let n = self.vehicles.len();
+        let staying = n - leaving.len();
+        let chunk_count = n.div_ceil(MIN_VEHICLES_PER_TASK);
+        let mut kept: Vec<usize> = (0..chunk_count)
+            .map(|c| MIN_VEHICLES_PER_TASK.min(n - c * MIN_VEHICLES_PER_TASK))
+            .collect();
+        for &i in &leaving {
+            kept[i / MIN_VEHICLES_PER_TASK] -= 1;
+        }
+        // Each chunk's stayers: where they start in the list that remains,
+        // and their rows there.
+        let mut starts = Vec::with_capacity(chunk_count);
+        let mut chunk_rows = Vec::with_capacity(chunk_count);
+        let mut rows_left: &mut [RowInfo] = &mut self.row[..staying];
+        for &count in &kept {
+            starts.push(staying - rows_left.len());
+            let (rows, rest) = std::mem::take(&mut rows_left).split_at_mut(count);
+            chunk_rows.push(rows);
+            rows_left = rest;
+        }
         let follow = Follow {
             net: &self.net,
             policy: &self.branch_policy,
@@ -106,29 +124,29 @@ impl World {
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
-            .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+            .zip(chunk_rows)
+            .zip(starts)
             .zip(self.junctions.chunk_lists(n))
             .zip(self.index.chunk_fillers(n))
-            .enumerate()
             .map(
-                |(c, ((((vehicles, perceptions), rows), junction_list), mut index_items))| {
+                |(((((vehicles, perceptions), rows), start), junction_list), mut index_items)| {
                     let (net, config) = (follow.net, follow.motion);
                     let mut digest_sum = 0u64;
                     let mut followed = Followed::default();
+                    let mut stayed = 0;
                     for (k, p) in perceptions.iter().enumerate() {
                         prefetch::paths_ahead(net, vehicles, k);
                         prefetch::vertices_ahead(net, vehicles, k);
                         prefetch::conflicts_ahead(net, vehicles, k);
                         let v = &mut vehicles[k];
                         move_vehicle(net, config, dt, v, p);
-                        if !v.should_despawn {
-                            digest_sum = digest_sum.wrapping_add(pose_digest(v));
+                        if v.should_despawn {
+                            continue;
                         }
-                        if fuse {
-                            let i = c * MIN_VEHICLES_PER_TASK + k;
-                            let lists = (&mut rows[k], &mut *junction_list, &mut index_items);
-                            follow.vehicle(v, i, lists, &mut followed);
-                        }
+                        digest_sum = digest_sum.wrapping_add(pose_digest(v));
+                        let lists = (&mut rows[stayed], &mut *junction_list, &mut index_items);
+                        follow.vehicle(v, start + stayed, lists, &mut followed);
+                        stayed += 1;
                     }
                     (digest_sum, followed)
                 },
@@ -140,13 +158,14 @@ impl World {
             digest_sum = digest_sum.wrapping_add(digest);
             followed.append(chunk);
         }
-        self.prefollowed = fuse.then_some((n, followed));
+        self.row.truncate(staying);
+        self.prefollowed = Some((staying, followed));
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
         self.ticks += 1;
-        if any_flagged {
-            self.despawn_flagged();
+        if !leaving.is_empty() {
+            self.despawn(&leaving);
         }
         self.trajectory
             .add_tick_digest(self.vehicles.len(), digest_sum);
@@ -160,7 +179,7 @@ impl World {
     /// more: the vehicles' lines and paths read again). When the last motion
     /// pass did this for the vehicles it moved, only those added since are
     /// left. Returns whether any vehicle is flagged for despawn.
-    fn follow_lanes(&mut self) -> bool {
+    fn follow_lanes(&mut self) -> Vec<usize> {
         let n = self.vehicles.len();
         self.row.resize(n, RowInfo::default());
         let follow = Follow {
@@ -170,12 +189,13 @@ impl World {
         };
         let followed = match self.prefollowed.take() {
             Some((done, mut followed)) => {
+                // After the others, in the last lists, so that the items stay
+                // in vehicle order.
                 for i in done..n {
-                    let k = i / MIN_VEHICLES_PER_TASK;
                     let lists = (
                         &mut self.row[i],
-                        self.junctions.chunk_list(k),
-                        &mut self.index.chunk_filler(k),
+                        self.junctions.last_list(),
+                        &mut self.index.last_filler(),
                     );
                     follow.vehicle(&mut self.vehicles[i], i, lists, &mut followed);
                 }
@@ -217,7 +237,7 @@ impl World {
                 self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }
-        followed.flagged
+        followed.leaving
     }
 
     /// The lane changes routes need, where there is a gap (or where two
@@ -341,16 +361,23 @@ impl World {
         }
     }
 
-    fn despawn_flagged(&mut self) {
+    /// Removes the vehicles at `leaving` (ascending indices): those flagged
+    /// when this tick followed the lanes. (Those the motion pass flagged for
+    /// the next tick stay until then.)
+    fn despawn(&mut self, leaving: &[usize]) {
         let time = self.time;
         let net = &self.net;
         let events = &mut self.events;
+        let mut i = 0;
+        let mut next = leaving.iter().peekable();
         self.vehicles.retain(|v| {
-            if v.should_despawn {
+            let leaves = next.next_if_eq(&&i).is_some();
+            i += 1;
+            if leaves {
                 let reason = v.despawn_reason.unwrap_or(DespawnReason::DeadEnd);
                 events.push(SimEvent::Despawned(trip_record(net, v, time, reason)));
             }
-            !v.should_despawn
+            !leaves
         });
     }
 }
@@ -369,13 +396,14 @@ struct Follow<'a> {
 #[derive(Default)]
 pub(super) struct Followed {
     decisions: Vec<(VehicleId, Vec<BranchChoice>)>,
-    flagged: bool,
+    /// Indices of the vehicles flagged for despawn, ascending.
+    leaving: Vec<usize>,
 }
 
 impl Followed {
     fn append(&mut self, mut later: Followed) {
         self.decisions.append(&mut later.decisions);
-        self.flagged |= later.flagged;
+        self.leaving.append(&mut later.leaving);
     }
 }
 
@@ -390,7 +418,9 @@ impl Follow<'_> {
         followed: &mut Followed,
     ) {
         let made = follow_lanes_of(self.net, self.policy, self.motion, v);
-        followed.flagged |= v.should_despawn;
+        if v.should_despawn {
+            followed.leaving.push(i);
+        }
         // Also for a vehicle about to leave: it is still perceived, and seen
         // by others, this tick.
         *row = RowInfo::of(v);
