@@ -71,9 +71,15 @@ impl World {
         let leaving = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
         // The lane-following pass took the items of both; the junctions'
-        // grouping runs beside the lane index's.
+        // grouping runs beside the lane index's (in a small world, on this
+        // thread: the other workers sleep, and handing over costs more).
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
-        rayon::join(|| index.group(net), || junctions.group(net));
+        if self.vehicles.len() < MIN_VEHICLES_PER_TASK {
+            index.group(net);
+            junctions.group(net);
+        } else {
+            rayon::join(|| index.group(net), || junctions.group(net));
+        }
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
