@@ -3,6 +3,8 @@
 //! spawn loop in one deterministic, I/O-free object.
 
 mod awake;
+mod follow;
+mod motion;
 mod phases;
 mod spawning;
 mod step;
@@ -80,7 +82,7 @@ pub struct World {
     /// The next tick's lane following, done by the last motion pass for the
     /// vehicles before this index (see `step.rs`); dropped by anything that
     /// would change it.
-    prefollowed: Option<(usize, step::Followed)>,
+    prefollowed: Option<(usize, follow::Followed)>,
     vehicles: Vec<Vehicle>,
     /// What others' right of way reads about each vehicle this tick, taken
     /// as it follows its lanes (kept for the allocation).

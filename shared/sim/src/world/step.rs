@@ -1,25 +1,18 @@
-//! One tick: spawn, Cognition, Decision, Control, Visualization, despawn.
+//! One tick: spawn, lane following, the lane index, Cognition, deadlock
+//! breaking, the motion pass (`motion.rs`), despawn.
 
 use rayon::prelude::*;
-use trafficmesh_model::NpcVehicleConfig;
 
 use super::World;
 use super::awake::with_workers_awake;
 use super::phases::Phase;
-use crate::branching::{BranchChoice, BranchPolicy};
-use crate::cognition::path::advance_and_extend;
-use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
+use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
-use crate::control::{step_speed, update_pose};
-use crate::decision::decide;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
-use crate::lane_index::ChunkFiller;
 use crate::network::{LaneId, LaneNetwork};
 use crate::prefetch;
-use crate::trajectory::pose_digest;
-use crate::vehicle::{Vehicle, VehicleId};
-use crate::visualization::update_trip;
+use crate::vehicle::Vehicle;
 
 pub(super) fn trip_record(
     net: &LaneNetwork,
@@ -96,76 +89,7 @@ impl World {
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
-        // The motion pass also does the next tick's lane following while each
-        // vehicle is at hand, for the vehicles that stay: at the index each
-        // will have once those leaving at the end of this tick are gone.
-        let n = self.vehicles.len();
-        let staying = n - leaving.len();
-        let chunk_count = n.div_ceil(MIN_VEHICLES_PER_TASK);
-        let mut kept: Vec<usize> = (0..chunk_count)
-            .map(|c| MIN_VEHICLES_PER_TASK.min(n - c * MIN_VEHICLES_PER_TASK))
-            .collect();
-        for &i in &leaving {
-            kept[i / MIN_VEHICLES_PER_TASK] -= 1;
-        }
-        // Each chunk's stayers: where they start in the list that remains,
-        // and their rows there.
-        let mut starts = Vec::with_capacity(chunk_count);
-        let mut chunk_rows = Vec::with_capacity(chunk_count);
-        let mut rows_left: &mut [RowInfo] = &mut self.row[..staying];
-        for &count in &kept {
-            starts.push(staying - rows_left.len());
-            let (rows, rest) = std::mem::take(&mut rows_left).split_at_mut(count);
-            chunk_rows.push(rows);
-            rows_left = rest;
-        }
-        let follow = Follow {
-            net: &self.net,
-            policy: &self.branch_policy,
-            motion: &self.config.vehicle,
-        };
-        // In chunks, so that each loop can look at the vehicles ahead of it.
-        // Takes the trajectory digests of the vehicles that stay on the way.
-        let chunks: Vec<(u64, Followed)> = self
-            .vehicles
-            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-            .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
-            .zip(chunk_rows)
-            .zip(starts)
-            .zip(self.junctions.chunk_lists(n))
-            .zip(self.index.chunk_fillers(n))
-            .map(
-                |(((((vehicles, perceptions), rows), start), junction_list), mut index_items)| {
-                    let (net, config) = (follow.net, follow.motion);
-                    let mut digest_sum = 0u64;
-                    let mut followed = Followed::default();
-                    let mut stayed = 0;
-                    for (k, p) in perceptions.iter().enumerate() {
-                        prefetch::paths_ahead(net, vehicles, k);
-                        prefetch::vertices_ahead(net, vehicles, k);
-                        prefetch::conflicts_ahead(net, vehicles, k);
-                        let v = &mut vehicles[k];
-                        move_vehicle(net, config, dt, v, p);
-                        if v.should_despawn {
-                            continue;
-                        }
-                        digest_sum = digest_sum.wrapping_add(pose_digest(v));
-                        let lists = (&mut rows[stayed], &mut *junction_list, &mut index_items);
-                        follow.vehicle(v, start + stayed, lists, &mut followed);
-                        stayed += 1;
-                    }
-                    (digest_sum, followed)
-                },
-            )
-            .collect();
-        let mut digest_sum = 0u64;
-        let mut followed = Followed::default();
-        for (digest, chunk) in chunks {
-            digest_sum = digest_sum.wrapping_add(digest);
-            followed.append(chunk);
-        }
-        self.row.truncate(staying);
-        self.prefollowed = Some((staying, followed));
+        let digest_sum = self.move_and_follow(&perceptions, &leaving);
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
@@ -176,74 +100,6 @@ impl World {
         self.trajectory
             .add_tick_digest(self.vehicles.len(), digest_sum);
         self.phase_times.lap(Phase::Despawn);
-    }
-
-    /// Lane advance and branch choices: parallel (each vehicle draws from its own
-    /// random stream), then recorded in vehicle order. Takes in the same pass,
-    /// while each vehicle is at hand, its right-of-way facts, its junction
-    /// membership and its lane-index items (a pass of their own each cost
-    /// more: the vehicles' lines and paths read again). When the last motion
-    /// pass did this for the vehicles it moved, only those added since are
-    /// left. Returns whether any vehicle is flagged for despawn.
-    fn follow_lanes(&mut self) -> Vec<usize> {
-        let n = self.vehicles.len();
-        self.row.resize(n, RowInfo::default());
-        let follow = Follow {
-            net: &self.net,
-            policy: &self.branch_policy,
-            motion: &self.config.vehicle,
-        };
-        let followed = match self.prefollowed.take() {
-            Some((done, mut followed)) => {
-                // After the others, in the last lists, so that the items stay
-                // in vehicle order.
-                for i in done..n {
-                    let lists = (
-                        &mut self.row[i],
-                        self.junctions.last_list(),
-                        &mut self.index.last_filler(),
-                    );
-                    follow.vehicle(&mut self.vehicles[i], i, lists, &mut followed);
-                }
-                followed
-            }
-            None => {
-                let chunks: Vec<Followed> = self
-                    .vehicles
-                    .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-                    .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-                    .zip(self.junctions.chunk_lists(n))
-                    .zip(self.index.chunk_fillers(n))
-                    .enumerate()
-                    .map(
-                        |(c, (((vehicles, rows), junction_list), mut index_items))| {
-                            // In chunks, so that the loop can look at the vehicles ahead of it.
-                            let mut followed = Followed::default();
-                            for (k, row) in rows.iter_mut().enumerate() {
-                                prefetch::paths_ahead(follow.net, vehicles, k);
-                                prefetch::conflicts_ahead(follow.net, vehicles, k);
-                                let i = c * MIN_VEHICLES_PER_TASK + k;
-                                let lists = (row, &mut *junction_list, &mut index_items);
-                                follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
-                            }
-                            followed
-                        },
-                    )
-                    .collect();
-                let mut followed = Followed::default();
-                for chunk in chunks {
-                    followed.append(chunk);
-                }
-                followed
-            }
-        };
-        for (id, made) in followed.decisions {
-            for choice in made {
-                self.branch_stats.record(&choice);
-                self.events.push(SimEvent::BranchDecision { id, choice });
-            }
-        }
-        followed.leaving
     }
 
     /// The lane changes routes need, where there is a gap (or where two
@@ -388,106 +244,10 @@ impl World {
     }
 }
 
-/// What lane following reads besides the vehicle.
-struct Follow<'a> {
-    net: &'a LaneNetwork,
-    policy: &'a BranchPolicy,
-    motion: &'a NpcVehicleConfig,
-}
-
-/// What lane following of some vehicles brings back: the branch choices
-/// made (only the vehicles that made one, in vehicle order, so that the
-/// serial recording costs the choices, not the vehicles) and whether any
-/// vehicle is flagged for despawn.
-#[derive(Default)]
-pub(super) struct Followed {
-    decisions: Vec<(VehicleId, Vec<BranchChoice>)>,
-    /// Indices of the vehicles flagged for despawn, ascending.
-    leaving: Vec<usize>,
-}
-
-impl Followed {
-    fn append(&mut self, mut later: Followed) {
-        self.decisions.append(&mut later.decisions);
-        self.leaving.append(&mut later.leaving);
-    }
-}
-
-impl Follow<'_> {
-    /// Lane following of vehicle `i`, with what the tick takes in the same
-    /// pass: its right-of-way facts, junction membership and lane-index items.
-    fn vehicle(
-        &self,
-        v: &mut Vehicle,
-        i: usize,
-        (row, junction_list, index_items): (&mut RowInfo, &mut Vec<(u32, u32)>, &mut ChunkFiller),
-        followed: &mut Followed,
-    ) {
-        let made = follow_lanes_of(self.net, self.policy, self.motion, v);
-        if v.should_despawn {
-            followed.leaving.push(i);
-        }
-        // Also for a vehicle about to leave: it is still perceived, and seen
-        // by others, this tick.
-        *row = RowInfo::of(v);
-        JunctionBuckets::note(junction_list, i, row);
-        index_items.add(self.net, v, i);
-        if !made.is_empty() {
-            followed.decisions.push((v.id, made));
-        }
-    }
-}
-
-/// Lane advance and branch choices of one vehicle (none for one already
-/// leaving), with what follows from them; returns the choices made.
-fn follow_lanes_of(
-    net: &LaneNetwork,
-    policy: &BranchPolicy,
-    motion: &NpcVehicleConfig,
-    v: &mut Vehicle,
-) -> Vec<BranchChoice> {
-    let mut made = Vec::new();
-    if v.should_despawn {
-        return made;
-    }
-    let before = (v.path[0], v.path.get(1).copied());
-    advance_and_extend(net, policy, v, motion, &mut made);
-    if before != (v.path[0], v.path.get(1).copied()) {
-        lane_change::refresh_first_lanes(net, v);
-    }
-    if v.should_despawn && v.despawn_reason.is_none() {
-        v.despawn_reason = Some(DespawnReason::DeadEnd);
-    }
-    if v.forced_through.is_some()
-        && !net.lane(v.path[0]).intersection
-        && v.prev_lane.is_some_and(|p| net.lane(p).intersection)
-    {
-        v.forced_through = None;
-    }
-    made
-}
-
-/// Decision, Control and Visualization of one vehicle, after its perception.
-fn move_vehicle(
-    net: &LaneNetwork,
-    config: &NpcVehicleConfig,
-    dt: f64,
-    v: &mut Vehicle,
-    p: &Perception,
-) {
-    p.apply(v);
-    if v.should_despawn {
-        return;
-    }
-    v.speed_mode = decide(v, config);
-    step_speed(net, v, config, dt);
-    update_pose(net, v);
-    update_trip(v, dt);
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::cognition::right_of_way::JunctionBuckets;
     use crate::lane_index::LaneIndex;
     use crate::populate::populate;
     use crate::{World, WorldConfig};

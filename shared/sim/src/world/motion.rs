@@ -1,0 +1,117 @@
+//! The motion pass: Decision, Control and Visualization of every vehicle,
+//! and, while each is at hand, its trajectory digest and the next tick's
+//! lane following.
+
+use rayon::prelude::*;
+use trafficmesh_model::NpcVehicleConfig;
+
+use super::World;
+use super::follow::{Follow, Followed};
+use crate::cognition::Perception;
+use crate::cognition::right_of_way::RowInfo;
+use crate::control::{step_speed, update_pose};
+use crate::decision::decide;
+use crate::network::LaneNetwork;
+use crate::prefetch;
+use crate::trajectory::pose_digest;
+use crate::vehicle::Vehicle;
+use crate::visualization::update_trip;
+use crate::world::MIN_VEHICLES_PER_TASK;
+
+impl World {
+    /// Moves every vehicle by its perception and returns the sum of the
+    /// trajectory digests of those that stay. `leaving` (ascending) are the
+    /// vehicles that leave at the end of this tick: they do not move.
+    pub(super) fn move_and_follow(&mut self, perceptions: &[Perception], leaving: &[usize]) -> u64 {
+        let dt = self.config.dt;
+        // The motion pass also does the next tick's lane following while each
+        // vehicle is at hand, for the vehicles that stay: at the index each
+        // will have once those leaving at the end of this tick are gone.
+        let n = self.vehicles.len();
+        let staying = n - leaving.len();
+        let chunk_count = n.div_ceil(MIN_VEHICLES_PER_TASK);
+        let mut kept: Vec<usize> = (0..chunk_count)
+            .map(|c| MIN_VEHICLES_PER_TASK.min(n - c * MIN_VEHICLES_PER_TASK))
+            .collect();
+        for &i in leaving {
+            kept[i / MIN_VEHICLES_PER_TASK] -= 1;
+        }
+        // Each chunk's stayers: where they start in the list that remains,
+        // and their rows there.
+        let mut starts = Vec::with_capacity(chunk_count);
+        let mut chunk_rows = Vec::with_capacity(chunk_count);
+        let mut rows_left: &mut [RowInfo] = &mut self.row[..staying];
+        for &count in &kept {
+            starts.push(staying - rows_left.len());
+            let (rows, rest) = std::mem::take(&mut rows_left).split_at_mut(count);
+            chunk_rows.push(rows);
+            rows_left = rest;
+        }
+        let follow = Follow {
+            net: &self.net,
+            policy: &self.branch_policy,
+            motion: &self.config.vehicle,
+        };
+        // In chunks, so that each loop can look at the vehicles ahead of it.
+        // Takes the trajectory digests of the vehicles that stay on the way.
+        let chunks: Vec<(u64, Followed)> = self
+            .vehicles
+            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
+            .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
+            .zip(chunk_rows)
+            .zip(starts)
+            .zip(self.junctions.chunk_lists(n))
+            .zip(self.index.chunk_fillers(n))
+            .map(
+                |(((((vehicles, perceptions), rows), start), junction_list), mut index_items)| {
+                    let (net, config) = (follow.net, follow.motion);
+                    let mut digest_sum = 0u64;
+                    let mut followed = Followed::default();
+                    let mut stayed = 0;
+                    for (k, p) in perceptions.iter().enumerate() {
+                        prefetch::paths_ahead(net, vehicles, k);
+                        prefetch::vertices_ahead(net, vehicles, k);
+                        prefetch::conflicts_ahead(net, vehicles, k);
+                        let v = &mut vehicles[k];
+                        move_vehicle(net, config, dt, v, p);
+                        if v.should_despawn {
+                            continue;
+                        }
+                        digest_sum = digest_sum.wrapping_add(pose_digest(v));
+                        let lists = (&mut rows[stayed], &mut *junction_list, &mut index_items);
+                        follow.vehicle(v, start + stayed, lists, &mut followed);
+                        stayed += 1;
+                    }
+                    (digest_sum, followed)
+                },
+            )
+            .collect();
+        let mut digest_sum = 0u64;
+        let mut followed = Followed::default();
+        for (digest, chunk) in chunks {
+            digest_sum = digest_sum.wrapping_add(digest);
+            followed.append(chunk);
+        }
+        self.row.truncate(staying);
+        self.prefollowed = Some((staying, followed));
+        digest_sum
+    }
+}
+
+/// Decision, Control and Visualization of one vehicle, after its perception.
+fn move_vehicle(
+    net: &LaneNetwork,
+    config: &NpcVehicleConfig,
+    dt: f64,
+    v: &mut Vehicle,
+    p: &Perception,
+) {
+    p.apply(v);
+    if v.should_despawn {
+        return;
+    }
+    v.speed_mode = decide(v, config);
+    step_speed(net, v, config, dt);
+    update_pose(net, v);
+    update_trip(v, dt);
+}
