@@ -17,7 +17,7 @@ pub use files::{
     FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,
 };
-pub use grid::{GridOptions, grid_map};
+pub use grid::{GridOptions, grid_map, grid_world};
 pub use import::{ImportError, Imported};
 
 /// Loads a map (any format), with a SUMO route file's demand in place of the

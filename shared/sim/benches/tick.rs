@@ -4,25 +4,14 @@
 use std::time::Instant;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_maps::grid_world;
+use trafficmesh_sim::World;
 use trafficmesh_sim::populate::populate;
-use trafficmesh_sim::{LaneNetwork, World, WorldConfig};
 
 fn world_with(vehicles: usize) -> World {
     // 40 x 40 holds about 90,000 parked vehicles; 100k needs a larger grid.
     let size = if vehicles > 50_000 { 60 } else { 40 };
-    let net = LaneNetwork::build(&grid_map(&GridOptions {
-        size,
-        ..GridOptions::default()
-    }))
-    .expect("valid grid");
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            max_vehicles: vehicles,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = grid_world(size, vehicles).expect("valid grid");
     assert_eq!(populate(&mut world, vehicles), vehicles, "grid too small");
     // One simulated minute first: the first seconds after placing parked cars
     // are cheaper than the steady state with queues at every junction.

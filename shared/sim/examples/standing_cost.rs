@@ -9,9 +9,8 @@
 
 use std::time::Instant;
 
-use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_maps::grid_world;
 use trafficmesh_sim::populate::populate;
-use trafficmesh_sim::{LaneNetwork, World, WorldConfig};
 
 const VEHICLES: usize = 10_000;
 const WARMUP_TICKS: usize = 3_000;
@@ -23,18 +22,7 @@ fn main() {
         .num_threads(1)
         .build()
         .expect("a one-thread pool");
-    let net = LaneNetwork::build(&grid_map(&GridOptions {
-        size: 40,
-        ..GridOptions::default()
-    }))
-    .expect("the generated grid is valid");
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            max_vehicles: VEHICLES,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = grid_world(40, VEHICLES).expect("the generated grid is valid");
     populate(&mut world, VEHICLES);
     let samples: Vec<(f64, f64)> = pool.install(|| {
         for _ in 0..WARMUP_TICKS {

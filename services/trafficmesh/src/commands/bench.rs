@@ -6,9 +6,8 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use serde::Serialize;
-use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_maps::grid_world;
 use trafficmesh_sim::populate::populate;
-use trafficmesh_sim::{LaneNetwork, World, WorldConfig};
 
 use super::memory::{heap_bytes, resident_bytes};
 use super::thread_pool;
@@ -95,18 +94,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             a.warmup
         );
     }
-    let net = LaneNetwork::build(&grid_map(&GridOptions {
-        size: a.size,
-        ..GridOptions::default()
-    }))
-    .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
-    let mut world = World::new(
-        net,
-        WorldConfig {
-            max_vehicles: a.vehicles,
-            ..WorldConfig::default()
-        },
-    );
+    let mut world = grid_world(a.size, a.vehicles)
+        .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
     // Everything allocated from here on (vehicles, per-tick buffers) counts per vehicle.
     let (rss_map, heap_map) = (resident_bytes(), heap_bytes());
     let placed = populate(&mut world, a.vehicles);
