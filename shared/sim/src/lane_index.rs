@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::buckets::Buckets;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::Vehicle;
-use crate::world::MIN_VEHICLES_PER_TASK;
+use crate::world::{MIN_VEHICLES_PER_TASK, join_if};
 
 /// One vehicle's body on one lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -199,7 +199,6 @@ impl LaneIndex {
 
     /// Groups the chunks' items by lane.
     pub fn group(&mut self, net: &LaneNetwork) {
-        let chunk_count = self.chunks.len();
         self.lane_changers.clear();
         for chunk in &self.chunks {
             self.lane_changers.extend_from_slice(&chunk.lane_changers);
@@ -213,19 +212,20 @@ impl LaneIndex {
             chunks.iter().map(|c| c.blocked.as_slice()).collect();
         let by_rear =
             |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle));
-        if chunk_count > 1 {
-            rayon::join(
-                || {
-                    occupants.rebuild_from_parts(lanes, &occupant_parts);
+        // More than one chunk: a world large enough for the pool.
+        let parallel = self.chunks.len() > 1;
+        join_if(
+            parallel,
+            || {
+                occupants.rebuild_from_parts(lanes, &occupant_parts);
+                if parallel {
                     occupants.par_sort_each_by(by_rear);
-                },
-                || blocked.rebuild_from_parts(lanes, &blocked_parts),
-            );
-        } else {
-            occupants.rebuild_from_parts(lanes, &occupant_parts);
-            occupants.sort_each_by(by_rear);
-            blocked.rebuild_from_parts(lanes, &blocked_parts);
-        }
+                } else {
+                    occupants.sort_each_by(by_rear);
+                }
+            },
+            || blocked.rebuild_from_parts(lanes, &blocked_parts),
+        );
     }
 
     /// Vehicles waiting to change lanes, in vehicle order.

@@ -77,13 +77,15 @@ pub fn paths_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
 
 /// Half as far ahead as [`paths_ahead`], whose lanes have arrived by then:
 /// the vertices around the front and rear of vehicle i + AHEAD/2 on curved
-/// lanes (the pose update reads them).
+/// lanes (the pose update reads them), and the lane's conflict zones.
 #[inline(always)]
-pub fn vertices_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
+pub fn vertices_and_conflicts_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
     let Some(v) = vehicles.get(i + AHEAD / 2) else {
         return;
     };
-    net.lane(v.path[0]).line.prefetch_at(v.s);
+    let lane = net.lane(v.path[0]);
+    lane.line.prefetch_at(v.s);
+    conflicts_of(lane);
     if v.rear_s() < 0.0
         && let Some(p) = v.prev_lane
     {
@@ -92,14 +94,20 @@ pub fn vertices_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
     }
 }
 
-/// Half as far ahead as [`paths_ahead`]: the first conflict zone of vehicle
-/// i + AHEAD/2's lane, where the lane-index items of its body start (1% of
-/// a 10k tick, switched every four ticks in one process).
+/// Half as far ahead as [`paths_ahead`]: the conflict zones of vehicle
+/// i + AHEAD/2's lane.
 #[inline(always)]
 pub fn conflicts_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: usize) {
-    if let Some(v) = vehicles.get(i + AHEAD / 2)
-        && let Some(c) = net.lane(v.path[0]).conflicts.first()
-    {
+    if let Some(v) = vehicles.get(i + AHEAD / 2) {
+        conflicts_of(net.lane(v.path[0]));
+    }
+}
+
+/// The first conflict zone of a lane, where the lane-index items of a body
+/// on it start (1% of a 10k tick, switched every four ticks in one process).
+#[inline(always)]
+fn conflicts_of(lane: &Lane) {
+    if let Some(c) = lane.conflicts.first() {
         line(c);
     }
 }

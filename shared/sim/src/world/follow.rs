@@ -27,7 +27,7 @@ impl World {
     /// membership and its lane-index items (a pass of their own each cost
     /// more: the vehicles' lines and paths read again). When the last motion
     /// pass did this for the vehicles it moved, only those added since are
-    /// left. Returns whether any vehicle is flagged for despawn.
+    /// left. Returns the indices of the vehicles flagged for despawn, ascending.
     pub(super) fn follow_lanes(&mut self) -> Vec<usize> {
         let n = self.vehicles.len();
         self.row.resize(n, RowInfo::default());
@@ -99,8 +99,8 @@ pub(super) struct Follow<'a> {
 
 /// What lane following of some vehicles brings back: the branch choices
 /// made (only the vehicles that made one, in vehicle order, so that the
-/// serial recording costs the choices, not the vehicles) and whether any
-/// vehicle is flagged for despawn.
+/// serial recording costs the choices, not the vehicles) and the vehicles
+/// flagged for despawn.
 #[derive(Default)]
 pub(super) struct Followed {
     decisions: Vec<(VehicleId, Vec<BranchChoice>)>,

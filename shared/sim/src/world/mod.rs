@@ -27,6 +27,7 @@ use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
 use crate::trajectory::TrajectoryHash;
 use crate::vehicle::{Vehicle, VehicleId};
 
+pub(crate) use awake::join_if;
 pub use phases::{Phase, PhaseTimes};
 pub use spawning::SpawnRejection;
 pub use step::MIN_VEHICLES_PER_TASK;
@@ -80,7 +81,7 @@ pub struct World {
     /// Every vehicle's pose at every tick since the world was built.
     trajectory: TrajectoryHash,
     /// The next tick's lane following, done by the last motion pass for the
-    /// vehicles before this index (see `step.rs`); dropped by anything that
+    /// vehicles before this index (see `motion.rs`); dropped by anything that
     /// would change it.
     prefollowed: Option<(usize, follow::Followed)>,
     vehicles: Vec<Vehicle>,

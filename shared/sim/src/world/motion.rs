@@ -38,13 +38,12 @@ impl World {
         }
         // Each chunk's stayers: where they start in the list that remains,
         // and their rows there.
-        let mut starts = Vec::with_capacity(chunk_count);
-        let mut chunk_rows = Vec::with_capacity(chunk_count);
+        let mut stayers = Vec::with_capacity(chunk_count);
         let mut rows_left: &mut [RowInfo] = &mut self.row[..staying];
-        for &count in &kept {
-            starts.push(staying - rows_left.len());
+        for count in kept {
+            let start = staying - rows_left.len();
             let (rows, rest) = std::mem::take(&mut rows_left).split_at_mut(count);
-            chunk_rows.push(rows);
+            stayers.push((start, rows));
             rows_left = rest;
         }
         let follow = Follow {
@@ -58,20 +57,18 @@ impl World {
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
-            .zip(chunk_rows)
-            .zip(starts)
+            .zip(stayers)
             .zip(self.junctions.chunk_lists(n))
             .zip(self.index.chunk_fillers(n))
             .map(
-                |(((((vehicles, perceptions), rows), start), junction_list), mut index_items)| {
+                |((((vehicles, perceptions), (start, rows)), junction_list), mut index_items)| {
                     let (net, config) = (follow.net, follow.motion);
                     let mut digest_sum = 0u64;
                     let mut followed = Followed::default();
                     let mut stayed = 0;
                     for (k, p) in perceptions.iter().enumerate() {
                         prefetch::paths_ahead(net, vehicles, k);
-                        prefetch::vertices_ahead(net, vehicles, k);
-                        prefetch::conflicts_ahead(net, vehicles, k);
+                        prefetch::vertices_and_conflicts_ahead(net, vehicles, k);
                         let v = &mut vehicles[k];
                         move_vehicle(net, config, dt, v, p);
                         if v.should_despawn {
@@ -82,6 +79,7 @@ impl World {
                         follow.vehicle(v, start + stayed, lists, &mut followed);
                         stayed += 1;
                     }
+                    debug_assert_eq!(stayed, rows.len(), "the leaving list matches the flags");
                     (digest_sum, followed)
                 },
             )

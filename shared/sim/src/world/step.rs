@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use super::World;
-use super::awake::with_workers_awake;
+use super::awake::{join_if, with_workers_awake};
 use super::phases::Phase;
 use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
@@ -64,15 +64,10 @@ impl World {
         let leaving = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
         // The lane-following pass took the items of both; the junctions'
-        // grouping runs beside the lane index's (in a small world, on this
-        // thread: the other workers sleep, and handing over costs more).
+        // grouping runs beside the lane index's.
+        let parallel = self.vehicles.len() >= MIN_VEHICLES_PER_TASK;
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
-        if self.vehicles.len() < MIN_VEHICLES_PER_TASK {
-            index.group(net);
-            junctions.group(net);
-        } else {
-            rayon::join(|| index.group(net), || junctions.group(net));
-        }
+        join_if(parallel, || index.group(net), || junctions.group(net));
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
