@@ -32,7 +32,10 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
             t.reason.as_str().to_string(),
         ])?;
     }
-    for v in world.vehicles() {
+    // The world keeps its vehicles grouped by lane; the file lists them by id.
+    let mut running: Vec<_> = world.vehicles().iter().collect();
+    running.sort_by_key(|v| v.id);
+    for v in running {
         w.write_record([
             v.id.to_string(),
             world.network().kinds[v.kind].name.clone(),

@@ -58,7 +58,7 @@ pub struct LaneIndex {
     blocked: Buckets<BlockedZone>,
     /// Items per chunk of vehicles, kept for their allocations.
     chunks: Vec<ChunkItems>,
-    /// Vehicles waiting to change lanes (those with a ghost), in vehicle order.
+    /// Vehicles waiting to change lanes (those with a ghost), in list order.
     lane_changers: Vec<u32>,
 }
 
@@ -157,7 +157,7 @@ impl LaneIndex {
     /// Takes every vehicle's items and groups them. (A tick takes the items
     /// in its lane-following pass instead: [`LaneIndex::chunk_fillers`].)
     pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
-        // Items per chunk of vehicles in parallel, then joined in vehicle order,
+        // Items per chunk of vehicles in parallel, then joined in list order,
         // so the result does not depend on the thread count.
         let chunk_count = vehicles.len().div_ceil(MIN_VEHICLES_PER_TASK);
         self.chunks.resize_with(chunk_count, Default::default);
@@ -168,7 +168,7 @@ impl LaneIndex {
             .for_each(|(k, (chunk, some))| {
                 chunk.fill(net, some, (k * MIN_VEHICLES_PER_TASK) as u32)
             });
-        self.group(net);
+        self.group(net, vehicles);
     }
 
     /// One emptied item list per chunk of [`MIN_VEHICLES_PER_TASK`] of
@@ -197,8 +197,9 @@ impl LaneIndex {
         }
     }
 
-    /// Groups the chunks' items by lane.
-    pub fn group(&mut self, net: &LaneNetwork) {
+    /// Groups the chunks' items by lane; `vehicles` are those the items
+    /// index.
+    pub fn group(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
         self.lane_changers.clear();
         for chunk in &self.chunks {
             self.lane_changers.extend_from_slice(&chunk.lane_changers);
@@ -210,8 +211,11 @@ impl LaneIndex {
             chunks.iter().map(|c| c.occupants.as_slice()).collect();
         let blocked_parts: Vec<&[(LaneId, BlockedZone)]> =
             chunks.iter().map(|c| c.blocked.as_slice()).collect();
+        // Level rears (a lane-change ghost beside a twin) go by id, so that
+        // the order does not depend on where the vehicles lie in the list.
+        let id = |o: &Occupant| vehicles[o.vehicle as usize].id;
         let by_rear =
-            |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then(a.vehicle.cmp(&b.vehicle));
+            |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then_with(|| id(a).cmp(&id(b)));
         // More than one chunk: a world large enough for the pool.
         let parallel = self.chunks.len() > 1;
         join_if(
@@ -228,7 +232,7 @@ impl LaneIndex {
         );
     }
 
-    /// Vehicles waiting to change lanes, in vehicle order.
+    /// Vehicles waiting to change lanes, in list order.
     pub fn lane_changers(&self) -> &[u32] {
         &self.lane_changers
     }

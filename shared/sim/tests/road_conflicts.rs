@@ -48,6 +48,48 @@ fn at_an_unmarked_crossing_the_vehicle_nearer_to_it_goes_first() {
     assert_eq!(order, [near, far], "the nearer one crosses first");
 }
 
+/// Which of two vehicles crosses first where they arrive together: the
+/// lower id, whichever was placed on which road and wherever the vehicles
+/// lie in the world's list (regrouped by lane every tick, or never).
+#[test]
+fn at_an_unmarked_crossing_reached_together_the_lower_id_goes_first() {
+    for regroup_interval in [0, 1] {
+        for lower_on in ["east", "north"] {
+            let m = unmarked_map(vec![
+                lane("east", &[[0.0, 0.0], [200.0, 0.0]], &[]),
+                lane("north", &[[100.0, -100.0], [100.0, 100.0]], &[]),
+            ]);
+            let config = WorldConfig {
+                regroup_interval,
+                ..WorldConfig::default()
+            };
+            let mut w = world(&m, config);
+            let higher_on = if lower_on == "east" { "north" } else { "east" };
+            // Fronts 40 m from the crossing, same speed: level all the way.
+            let lower = w.place_vehicle("Taxi", lower_on, 60.0, 10.0).unwrap();
+            let higher = w.place_vehicle("Taxi", higher_on, 60.0, 10.0).unwrap();
+            let mut crossed: Vec<u64> = Vec::new();
+            let done = run_until(&mut w, 120.0, |w| {
+                let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                assert!(pairs.is_empty(), "overlap at t={:.2}", w.time());
+                for id in [lower, higher] {
+                    if w.vehicle(id).is_some_and(|v| v.s > 100.0) && !crossed.contains(&id) {
+                        crossed.push(id);
+                    }
+                }
+                w.vehicles().is_empty()
+            });
+            assert!(done, "both drive on");
+            let what = format!("lower id on {lower_on}, regrouped every {regroup_interval}");
+            assert_eq!(
+                crossed,
+                [lower, higher],
+                "{what}: the lower id crosses first"
+            );
+        }
+    }
+}
+
 #[test]
 fn two_trucks_do_not_fit_side_by_side_on_narrow_lanes_but_two_cars_do() {
     // Two eastbound lanes 2.8 m apart: room for a car beside a car (1.94 m

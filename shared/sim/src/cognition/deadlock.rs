@@ -8,7 +8,7 @@
 
 use trafficmesh_model::YieldPhase;
 
-use super::Perception;
+use super::{Perception, Snapshot};
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
@@ -16,19 +16,21 @@ const STOPPED_SPEED: f64 = 0.05;
 /// No vehicle: the wait of one that waits for nobody.
 pub const NOBODY: u32 = u32::MAX;
 
-/// The vehicle `v` is stopped waiting for this tick (an index; [`NOBODY`] if
+/// The vehicle `i` is stopped waiting for this tick (an index; [`NOBODY`] if
 /// none), and whether a rule rather than a body holds it. Taken while each
 /// perception is made, so that deadlock breaking needs no pass of its own over
-/// the vehicles (they are sorted by id).
-pub fn wait_of(vehicles: &[Vehicle], v: &Vehicle, p: &Perception) -> Wait {
-    if v.speed >= STOPPED_SPEED {
+/// the vehicles. (A rule's dominating vehicle is one of the junction's
+/// members, which right of way looked over.)
+pub fn wait_of(snap: &Snapshot, i: usize, p: &Perception) -> Wait {
+    if snap.vehicles[i].speed >= STOPPED_SPEED {
         return (NOBODY, false);
     }
     if p.yield_phase.is_yielding() {
+        let junction = snap.row[i].junction;
         let rule = p
             .dominating
-            .and_then(|id| vehicles.binary_search_by_key(&id, |o| o.id).ok());
-        return rule.map_or((NOBODY, false), |i| (i as u32, true));
+            .and_then(|id| snap.junctions.index_of(junction, id));
+        return rule.map_or((NOBODY, false), |i| (i, true));
     }
     (p.front_vehicle.unwrap_or(NOBODY), false)
 }
@@ -66,13 +68,13 @@ pub fn break_cycles(
             }
             let next = next as usize;
             if walk_of[next] == start as u32 {
-                // A new cycle through `next`: release its lowest id (lowest
-                // index) among the rule-held.
+                // A new cycle through `next`: release its lowest id among
+                // the rule-held.
                 let mut lowest: Option<usize> = None;
                 let mut k = next;
                 loop {
-                    if waits[k].1 {
-                        lowest = Some(lowest.map_or(k, |l| l.min(k)));
+                    if waits[k].1 && lowest.is_none_or(|l| vehicles[k].id < vehicles[l].id) {
+                        lowest = Some(k);
                     }
                     k = waits[k].0 as usize;
                     if k == next {

@@ -1,6 +1,7 @@
 //! Cognition: what each vehicle perceives this tick. Runs in parallel, every
 //! vehicle reading the same immutable [`Snapshot`] of the previous tick, so the
-//! result depends neither on thread count nor on vehicle order.
+//! result depends neither on thread count nor on the vehicles' order in the
+//! world's list (where the order could decide, as between level bodies, ids do).
 
 pub mod curve;
 pub mod deadlock;

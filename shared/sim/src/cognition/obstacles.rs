@@ -11,7 +11,7 @@ use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
 use crate::network::{LaneId, LaneNetwork};
-use crate::vehicle::Vehicle;
+use crate::vehicle::{Vehicle, VehicleId};
 
 /// A stopped vehicle this close to the start of a junction's exit lane leaves no
 /// room to enter the junction behind it (metres beyond one's own length): the
@@ -117,6 +117,10 @@ struct Search<'a, 'b> {
 }
 
 impl Search<'_, '_> {
+    fn id_of(&self, vehicle: u32) -> VehicleId {
+        self.snap.vehicles[vehicle as usize].id
+    }
+
     /// The nearest vehicle ahead on the lane whose body is ahead of ours.
     fn leader_on(&self, LaneAhead { lane, offset }: LaneAhead) -> FrontObstacle {
         let v = self.v;
@@ -154,15 +158,7 @@ impl Search<'_, '_> {
         let mut nearest = FrontObstacle::clear_to(best);
         for z in self.snap.index.blocked_zones(lane) {
             let zone_start = offset + z.start;
-            if offset + z.end <= 0.0
-                || zone_start > self.range
-                || zone_start >= nearest.distance
-                || z.vehicle as usize == self.i
-                // A junction lane of our own path: its bodies are our leaders. A road
-                // conflict with our own path is a tight loop: the body is in the way.
-                || (!z.road && v.path.contains(&z.source))
-                || z.passable(v.width)
-            {
+            if offset + z.end <= 0.0 || zone_start > self.range {
                 continue;
             }
             let d = match z.parallel_rear {
@@ -172,12 +168,27 @@ impl Search<'_, '_> {
                 None if zone_start <= 0.0 => continue,
                 None => zone_start,
             };
-            if d > 0.0 && d < nearest.distance {
-                nearest = FrontObstacle {
-                    distance: d,
-                    vehicle: Some(z.vehicle),
-                };
+            // The nearest body, of level ones the lowest id: the same whatever
+            // the zones' order in the list.
+            let nearer = d < nearest.distance
+                || (d == nearest.distance
+                    && nearest
+                        .vehicle
+                        .is_some_and(|n| self.id_of(z.vehicle) < self.id_of(n)));
+            if d <= 0.0
+                || !nearer
+                || z.vehicle as usize == self.i
+                // A junction lane of our own path: its bodies are our leaders. A road
+                // conflict with our own path is a tight loop: the body is in the way.
+                || (!z.road && v.path.contains(&z.source))
+                || z.passable(v.width)
+            {
+                continue;
             }
+            nearest = FrontObstacle {
+                distance: d,
+                vehicle: Some(z.vehicle),
+            };
         }
         nearest
     }
@@ -210,7 +221,7 @@ impl Search<'_, '_> {
     /// A vehicle on the other lane of conflict `c`, or on a lane just before
     /// it, that will reach the zone before us: too wide to pass us there, its
     /// front nearer to the zone than ours (`ours` metres; equally near, the
-    /// lower index goes first), and neither an obstacle nor a red light stops
+    /// lower id goes first), and neither an obstacle nor a red light stops
     /// it before.
     fn claimant(&self, c: &Conflict, ours: f64) -> Option<u32> {
         let (snap, i) = (self.snap, self.i);
@@ -219,7 +230,8 @@ impl Search<'_, '_> {
             .on_lane_or_before(snap.net, lane)
             .find_map(|(o, front)| {
                 let to_zone = zone - front;
-                let nearer = to_zone < ours || (to_zone == ours && (o.vehicle as usize) < i);
+                let nearer =
+                    to_zone < ours || (to_zone == ours && self.id_of(o.vehicle) < self.v.id);
                 if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
                     return None;
                 }

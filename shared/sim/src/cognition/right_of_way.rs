@@ -91,21 +91,30 @@ impl RowInfo {
     }
 }
 
-/// Considered vehicles of each junction, in vehicle order. Rebuilt in place
-/// each tick.
+/// A considered vehicle of a junction: its id, which orders the members (so
+/// that which one a predicate finds first does not depend on where the
+/// vehicles lie in the world's list), and its index there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Member {
+    pub id: VehicleId,
+    pub index: u32,
+}
+
+/// Considered vehicles of each junction, in id order. Rebuilt in place each
+/// tick.
 #[derive(Clone, Debug, Default)]
 pub struct JunctionBuckets {
-    buckets: Buckets<u32>,
-    /// (junction, vehicle index) per chunk of [`MIN_VEHICLES_PER_TASK`]
-    /// vehicles, noted by the pass that takes each vehicle's [`RowInfo`], while
-    /// it is at hand (kept for the allocations).
-    chunks: Vec<Vec<(u32, u32)>>,
+    buckets: Buckets<Member>,
+    /// (junction, member) per chunk of [`MIN_VEHICLES_PER_TASK`] vehicles,
+    /// noted by the pass that takes each vehicle's [`RowInfo`], while it is at
+    /// hand (kept for the allocations).
+    chunks: Vec<Vec<(u32, Member)>>,
 }
 
 impl JunctionBuckets {
     /// One emptied member list per chunk of `vehicle_count` vehicles, for
     /// [`JunctionBuckets::note`]; then [`JunctionBuckets::group`].
-    pub fn chunk_lists(&mut self, vehicle_count: usize) -> &mut [Vec<(u32, u32)>] {
+    pub fn chunk_lists(&mut self, vehicle_count: usize) -> &mut [Vec<(u32, Member)>] {
         let count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
         self.chunks.resize_with(count, Vec::new);
         for list in &mut self.chunks {
@@ -115,8 +124,8 @@ impl JunctionBuckets {
     }
 
     /// The last chunk's member list, as it is (for vehicles added after a
-    /// pass over the others filled the lists: they go after all others).
-    pub fn last_list(&mut self) -> &mut Vec<(u32, u32)> {
+    /// pass over the others filled the lists).
+    pub fn last_list(&mut self) -> &mut Vec<(u32, Member)> {
         if self.chunks.is_empty() {
             self.chunks.push(Vec::new());
         }
@@ -124,18 +133,24 @@ impl JunctionBuckets {
     }
 
     /// Notes vehicle `i` in its chunk's list if its junction considers it.
-    pub fn note(list: &mut Vec<(u32, u32)>, i: usize, info: &RowInfo) {
+    pub fn note(list: &mut Vec<(u32, Member)>, i: usize, info: &RowInfo) {
         if info.considered
             && let Some(junction) = info.junction
         {
-            list.push((junction, i as u32));
+            let member = Member {
+                id: info.id,
+                index: i as u32,
+            };
+            list.push((junction, member));
         }
     }
 
-    /// Groups the noted members by junction.
+    /// Groups the noted members by junction, in id order. (One thread: the
+    /// tick groups the lane index beside it, the larger job.)
     pub fn group(&mut self, net: &LaneNetwork) {
         self.buckets
             .rebuild_from_parts(net.junction_count as usize, &self.chunks);
+        self.buckets.sort_each_by(|a, b| a.id.cmp(&b.id));
     }
 
     /// Notes every vehicle again from `infos` and groups them: after lane
@@ -153,8 +168,15 @@ impl JunctionBuckets {
         self.group(net);
     }
 
-    pub(crate) fn of(&self, junction: Option<u32>) -> &[u32] {
+    pub(crate) fn of(&self, junction: Option<u32>) -> &[Member] {
         junction.map_or(&[], |j| self.buckets.get(j))
+    }
+
+    /// The index of the member `id` of `junction`, if it is one.
+    pub(crate) fn index_of(&self, junction: Option<u32>, id: VehicleId) -> Option<u32> {
+        let members = self.of(junction);
+        let k = members.binary_search_by_key(&id, |m| m.id).ok()?;
+        Some(members[k].index)
     }
 }
 
@@ -171,7 +193,7 @@ struct Ctx<'a, 'b> {
     i: usize,
     v: &'a Vehicle,
     info: &'a RowInfo,
-    candidates: &'a [u32],
+    candidates: &'a [Member],
     yield_lane: Option<LaneId>,
 }
 
@@ -338,11 +360,11 @@ impl Ctx<'_, '_> {
 
     /// Other considered vehicles of this junction within the interaction radius.
     fn others(&self) -> impl Iterator<Item = &RowInfo> + '_ {
-        self.candidates.iter().filter_map(move |&j| {
-            let o = &self.snap.row[j as usize];
+        self.candidates.iter().filter_map(move |m| {
+            let o = &self.snap.row[m.index as usize];
             let near =
                 o.front.distance_squared(self.v.front) < INTERACTION_RADIUS * INTERACTION_RADIUS;
-            (j as usize != self.i && near).then_some(o)
+            (m.index as usize != self.i && near).then_some(o)
         })
     }
 

@@ -11,7 +11,7 @@ use trafficmesh_model::NpcVehicleConfig;
 use super::World;
 use crate::branching::{BranchChoice, BranchPolicy};
 use crate::cognition::path::advance_and_extend;
-use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
+use crate::cognition::right_of_way::{JunctionBuckets, Member, RowInfo};
 use crate::events::{DespawnReason, SimEvent};
 use crate::lane_change;
 use crate::lane_index::ChunkFiller;
@@ -22,7 +22,7 @@ use crate::world::MIN_VEHICLES_PER_TASK;
 
 impl World {
     /// Lane advance and branch choices: parallel (each vehicle draws from its own
-    /// random stream), then recorded in vehicle order. Takes in the same pass,
+    /// random stream), then recorded in id order. Takes in the same pass,
     /// while each vehicle is at hand, its right-of-way facts, its junction
     /// membership and its lane-index items (a pass of their own each cost
     /// more: the vehicles' lines and paths read again). When the last motion
@@ -39,7 +39,7 @@ impl World {
         let followed = match self.prefollowed.take() {
             Some((done, mut followed)) => {
                 // After the others, in the last lists, so that the items stay
-                // in vehicle order.
+                // in list order.
                 for i in done..n {
                     let lists = (
                         &mut self.row[i],
@@ -80,13 +80,30 @@ impl World {
                 followed
             }
         };
-        for (id, made) in followed.decisions {
+        // With those held when what was done ahead was dropped; in id order,
+        // whatever the vehicles' order in the list.
+        let mut decisions = std::mem::take(&mut self.held_choices);
+        decisions.extend(followed.decisions);
+        decisions.sort_by_key(|&(id, _)| id);
+        for (id, made) in decisions {
             for choice in made {
                 self.branch_stats.record(&choice);
                 self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }
         followed.leaving
+    }
+}
+
+impl World {
+    /// Drops the lane following the last motion pass did ahead, when its
+    /// indices no longer hold or its facts may have changed. The lanes it
+    /// advanced and the branches it chose stand: the choices are held for
+    /// the next tick to record, as it would have.
+    pub(super) fn drop_prefollowed(&mut self) {
+        if let Some((_, followed)) = self.prefollowed.take() {
+            self.held_choices.extend(followed.decisions);
+        }
     }
 }
 
@@ -98,9 +115,8 @@ pub(super) struct Follow<'a> {
 }
 
 /// What lane following of some vehicles brings back: the branch choices
-/// made (only the vehicles that made one, in vehicle order, so that the
-/// serial recording costs the choices, not the vehicles) and the vehicles
-/// flagged for despawn.
+/// made (only the vehicles that made one, so that the serial recording costs
+/// the choices, not the vehicles) and the vehicles flagged for despawn.
 #[derive(Default)]
 pub(super) struct Followed {
     decisions: Vec<(VehicleId, Vec<BranchChoice>)>,
@@ -122,7 +138,11 @@ impl Follow<'_> {
         &self,
         v: &mut Vehicle,
         i: usize,
-        (row, junction_list, index_items): (&mut RowInfo, &mut Vec<(u32, u32)>, &mut ChunkFiller),
+        (row, junction_list, index_items): (
+            &mut RowInfo,
+            &mut Vec<(u32, Member)>,
+            &mut ChunkFiller,
+        ),
         followed: &mut Followed,
     ) {
         let made = follow_lanes_of(self.net, self.policy, self.motion, v);

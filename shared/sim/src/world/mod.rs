@@ -6,6 +6,7 @@ mod awake;
 mod follow;
 mod motion;
 mod phases;
+mod regroup;
 mod spawning;
 mod step;
 
@@ -13,7 +14,7 @@ use glam::{DVec2, DVec3};
 use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
-use crate::branching::{BranchPolicy, BranchStats};
+use crate::branching::{BranchChoice, BranchPolicy, BranchStats};
 use crate::cognition::Perception;
 use crate::cognition::deadlock::Wait;
 use crate::cognition::right_of_way::{JunctionBuckets, RowInfo};
@@ -43,6 +44,9 @@ pub struct WorldConfig {
     /// Tick length, seconds.
     pub dt: f64,
     pub vehicle: NpcVehicleConfig,
+    /// Ticks between regroupings of the vehicle list by lane (0: never). A
+    /// matter of speed only: the trajectories are the same for any value.
+    pub regroup_interval: u64,
 }
 
 impl Default for WorldConfig {
@@ -53,6 +57,7 @@ impl Default for WorldConfig {
             spawn_distance_to_ego: 50.0,
             dt: 0.02,
             vehicle: NpcVehicleConfig::default(),
+            regroup_interval: regroup::DEFAULT_INTERVAL,
         }
     }
 }
@@ -84,6 +89,8 @@ pub struct World {
     /// vehicles before this index (see `motion.rs`); dropped by anything that
     /// would change it.
     prefollowed: Option<(usize, follow::Followed)>,
+    /// Branch choices made ahead and not yet recorded when that was dropped.
+    held_choices: Vec<(VehicleId, Vec<BranchChoice>)>,
     vehicles: Vec<Vehicle>,
     /// What others' right of way reads about each vehicle this tick, taken
     /// as it follows its lanes (kept for the allocation).
@@ -122,6 +129,7 @@ impl World {
             ticks: 0,
             trajectory: TrajectoryHash::default(),
             prefollowed: None,
+            held_choices: Vec::new(),
             vehicles: Vec::new(),
             row: Vec::new(),
             junctions: JunctionBuckets::default(),
@@ -174,15 +182,15 @@ impl World {
     pub fn trajectory_hash(&self) -> u64 {
         self.trajectory.finish()
     }
-    /// Vehicles in spawn order (ascending id).
+    /// The vehicles, grouped by lane for the tick's memory locality (see
+    /// `world/regroup.rs`): not in id order. Nothing the simulation does
+    /// depends on this order.
     pub fn vehicles(&self) -> &[Vehicle] {
         &self.vehicles
     }
+    /// The vehicle `id`, found by a scan of the list.
     pub fn vehicle(&self, id: VehicleId) -> Option<&Vehicle> {
-        self.vehicles
-            .binary_search_by_key(&id, |v| v.id)
-            .ok()
-            .map(|i| &self.vehicles[i])
+        self.vehicles.iter().find(|v| v.id == id)
     }
     pub fn lights(&self) -> &Lights {
         &self.lights
@@ -232,8 +240,6 @@ impl World {
         config.validate(|name| self.net.lane_id(name).is_some())?;
         self.spawner.set_rates(&self.net, &config);
         self.branch_policy = BranchPolicy::from_config(&self.net, &config);
-        // Branch choices made ahead were made with the old weights.
-        self.prefollowed = None;
         self.spawn_config = Some(config);
         Ok(())
     }
@@ -352,7 +358,7 @@ impl World {
     /// of `center` (3D) and returns how many; they are gone after the next tick.
     pub fn remove_vehicles_in_radius(&mut self, center: DVec3, radius: f64) -> usize {
         // A vehicle leaving is not followed, and the list will shift.
-        self.prefollowed = None;
+        self.drop_prefollowed();
         let mut count = 0;
         for v in &mut self.vehicles {
             let p = DVec3::new(v.pose.x, v.pose.y, v.pose.z);
@@ -368,9 +374,9 @@ impl World {
     /// Removes one vehicle by id on the next tick; returns 1 if it existed.
     pub fn remove_vehicle(&mut self, id: VehicleId) -> usize {
         // A vehicle leaving is not followed, and the list will shift.
-        self.prefollowed = None;
-        match self.vehicles.binary_search_by_key(&id, |v| v.id) {
-            Ok(i) if !self.vehicles[i].should_despawn => {
+        self.drop_prefollowed();
+        match self.vehicles.iter().position(|v| v.id == id) {
+            Some(i) if !self.vehicles[i].should_despawn => {
                 let v = &mut self.vehicles[i];
                 v.should_despawn = true;
                 v.despawn_reason = Some(DespawnReason::Removed);
@@ -389,16 +395,14 @@ impl World {
     /// starts again with a new maximum vehicle count. The ego, the spawn config,
     /// the branch statistics and added simulators are kept; ids keep counting.
     pub fn restart(&mut self, max_vehicles: usize) {
-        self.prefollowed = None;
+        self.drop_prefollowed();
         let time = self.time;
-        for v in self.vehicles.drain(..) {
-            self.events.push(SimEvent::Despawned(step::trip_record(
-                &self.net,
-                &v,
-                time,
-                DespawnReason::Restart,
-            )));
-        }
+        let trips = self
+            .vehicles
+            .drain(..)
+            .map(|v| step::trip_record(&self.net, &v, time, DespawnReason::Restart))
+            .collect();
+        step::push_despawns(&mut self.events, trips);
         self.spawner.restart(&self.net);
         self.config.max_vehicles = max_vehicles;
         self.index = LaneIndex::empty(self.net.lanes.len());

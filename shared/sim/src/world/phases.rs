@@ -6,6 +6,7 @@ use std::time::{Duration, Instant};
 /// The phases of one tick, in the order they run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
+    Regroup,
     Lights,
     Spawn,
     FollowLanes,
@@ -19,7 +20,8 @@ pub enum Phase {
 }
 
 impl Phase {
-    pub const ALL: [Phase; 10] = [
+    pub const ALL: [Phase; 11] = [
+        Phase::Regroup,
         Phase::Lights,
         Phase::Spawn,
         Phase::FollowLanes,
@@ -34,6 +36,7 @@ impl Phase {
 
     pub fn name(self) -> &'static str {
         match self {
+            Phase::Regroup => "regroup",
             Phase::Lights => "lights",
             Phase::Spawn => "spawn",
             Phase::FollowLanes => "follow_lanes",

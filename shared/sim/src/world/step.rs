@@ -1,5 +1,6 @@
-//! One tick: spawn, lane following, the lane index, Cognition, deadlock
-//! breaking, the motion pass (`motion.rs`), despawn.
+//! One tick: regrouping the list now and then (`regroup.rs`), spawn, lane
+//! following, the lane index, Cognition, deadlock breaking, the motion pass
+//! (`motion.rs`), despawn.
 
 use rayon::prelude::*;
 
@@ -32,6 +33,12 @@ pub(super) fn trip_record(
     }
 }
 
+/// Despawn events in id order, whatever the vehicles' order in the list.
+pub(super) fn push_despawns(events: &mut Vec<SimEvent>, mut trips: Vec<TripRecord>) {
+    trips.sort_by_key(|t| t.id);
+    events.extend(trips.into_iter().map(SimEvent::Despawned));
+}
+
 /// The name the seed's log lines use: `<prefab>(Clone)_<id>`.
 pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
@@ -57,6 +64,7 @@ impl World {
     fn step_phases(&mut self) {
         let dt = self.config.dt;
         self.phase_times.begin();
+        self.regroup_phase();
         self.lights.update(self.time);
         self.phase_times.lap(Phase::Lights);
         self.spawn_phase();
@@ -67,7 +75,12 @@ impl World {
         // grouping runs beside the lane index's.
         let parallel = self.vehicles.len() >= MIN_VEHICLES_PER_TASK;
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
-        join_if(parallel, || index.group(net), || junctions.group(net));
+        let vehicles = &self.vehicles;
+        join_if(
+            parallel,
+            || index.group(net, vehicles),
+            || junctions.group(net),
+        );
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
             self.index.rebuild(&self.net, &self.vehicles);
@@ -99,12 +112,12 @@ impl World {
 
     /// The lane changes routes need, where there is a gap (or where two
     /// vehicles side by side each want the other's lane: they swap). Planned
-    /// against this tick's lane index, then made in vehicle order so that two
+    /// against this tick's lane index, then made in id order so that two
     /// vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
         let motion = self.config.vehicle;
         let (index, vehicles) = (&self.index, &self.vehicles);
-        let candidates: Vec<lane_change::Change> = index
+        let mut candidates: Vec<lane_change::Change> = index
             .lane_changers()
             .iter()
             .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, &motion))
@@ -112,6 +125,7 @@ impl World {
         if candidates.is_empty() {
             return false;
         }
+        candidates.sort_by_key(|c| vehicles[c.vehicle].id);
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
         for c in candidates {
@@ -170,7 +184,7 @@ impl World {
                 .map(|(i, wait)| {
                     prefetch::cognition_ahead(&snap, i);
                     let p = perceive(&snap, i);
-                    *wait = deadlock::wait_of(snap.vehicles, &snap.vehicles[i], &p);
+                    *wait = deadlock::wait_of(&snap, i, &p);
                     p
                 }),
         );
@@ -184,7 +198,13 @@ impl World {
             return;
         }
         self.zebra_blocked_last_tick = perceptions.iter().any(|p| p.zebra.is_blocked);
-        for (v, p) in self.vehicles.iter().zip(perceptions) {
+        // In id order, whatever the vehicles' order in the list.
+        let mut changed: Vec<usize> = (0..self.vehicles.len())
+            .filter(|&i| self.vehicles[i].zebra.is_blocked != perceptions[i].zebra.is_blocked)
+            .collect();
+        changed.sort_by_key(|&i| self.vehicles[i].id);
+        for i in changed {
+            let (v, p) = (&self.vehicles[i], &perceptions[i]);
             match (v.zebra.is_blocked, p.zebra.is_blocked) {
                 (false, true) => {
                     let area = p.zebra.area.expect("blocked implies an area");
@@ -224,7 +244,7 @@ impl World {
     fn despawn(&mut self, leaving: &[usize]) {
         let time = self.time;
         let net = &self.net;
-        let events = &mut self.events;
+        let mut trips = Vec::with_capacity(leaving.len());
         let mut i = 0;
         let mut next = leaving.iter().peekable();
         self.vehicles.retain(|v| {
@@ -232,10 +252,11 @@ impl World {
             i += 1;
             if leaves {
                 let reason = v.despawn_reason.unwrap_or(DespawnReason::DeadEnd);
-                events.push(SimEvent::Despawned(trip_record(net, v, time, reason)));
+                trips.push(trip_record(net, v, time, reason));
             }
             !leaves
         });
+        push_despawns(&mut self.events, trips);
     }
 }
 
@@ -281,7 +302,7 @@ mod tests {
             for _ in 0..2 {
                 world.follow_lanes();
                 assert_the_index_and_junctions_match_a_rebuild(&mut world);
-                world.prefollowed = None;
+                world.drop_prefollowed();
             }
             checked_later_chunks |= junction_members_beyond_the_first_chunk(&world);
         }
@@ -296,12 +317,12 @@ mod tests {
     fn junction_members_beyond_the_first_chunk(world: &World) -> bool {
         (0..world.net.junction_count)
             .flat_map(|j| world.junctions.of(Some(j)))
-            .any(|&i| i as usize >= MIN_VEHICLES_PER_TASK)
+            .any(|m| m.index as usize >= MIN_VEHICLES_PER_TASK)
     }
 
     fn assert_the_index_and_junctions_match_a_rebuild(world: &mut World) {
         let (net, vehicles) = (&world.net, &world.vehicles);
-        world.index.group(net);
+        world.index.group(net, vehicles);
         world.junctions.group(net);
         let mut index = LaneIndex::empty(net.lanes.len());
         index.rebuild(net, vehicles);
