@@ -82,8 +82,8 @@ impl World {
         };
         // With those held when what was done ahead was dropped; in id order,
         // whatever the vehicles' order in the list.
-        let mut decisions = std::mem::take(&mut self.held_choices);
-        decisions.extend(followed.decisions);
+        let mut decisions = followed.decisions;
+        decisions.append(&mut self.held_choices);
         decisions.sort_by_key(|&(id, _)| id);
         for (id, made) in decisions {
             for choice in made {
