@@ -69,6 +69,38 @@ fn permute<T>(items: &mut [T], order: &mut [u32]) {
 #[cfg(test)]
 mod tests {
     use super::permute;
+    use crate::lane_index::LaneIndex;
+    use crate::network::LaneNetwork;
+    use crate::{World, WorldConfig};
+    use trafficmesh_maps::{GridOptions, grid_map};
+
+    /// Two bodies level on a lane (a lane-change ghost beside its twin is
+    /// the case that happens) come in id order out of the lane index,
+    /// whichever of them lies first in the list.
+    #[test]
+    fn level_bodies_on_a_lane_are_indexed_in_id_order() {
+        let map = grid_map(&GridOptions {
+            size: 2,
+            ..GridOptions::default()
+        });
+        let net = LaneNetwork::build(&map).expect("grid map builds");
+        let lane = net.lanes.iter().find(|l| !l.intersection).expect("a road");
+        let (name, lane_id) = (lane.name.clone(), net.lane_id(&lane.name).expect("named"));
+        let mut world = World::new(net, WorldConfig::default());
+        let first = world.place_vehicle("Taxi", &name, 30.0, 0.0).unwrap();
+        let second = world.place_vehicle("Taxi", &name, 30.0, 0.0).unwrap();
+        for reversed in [false, true] {
+            if reversed {
+                world.vehicles.reverse();
+            }
+            let mut index = LaneIndex::empty(world.net.lanes.len());
+            index.rebuild(&world.net, &world.vehicles);
+            let ids: Vec<_> = (index.on_lane(lane_id).iter())
+                .map(|o| world.vehicles[o.vehicle as usize].id)
+                .collect();
+            assert_eq!(ids, [first, second], "list reversed: {reversed}");
+        }
+    }
 
     #[test]
     fn permute_moves_each_item_to_its_place() {
