@@ -54,16 +54,11 @@ impl TrajectoryHash {
 mod tests {
     use super::*;
     use crate::populate::populate;
-    use crate::{LaneNetwork, World, WorldConfig};
-    use trafficmesh_maps::{GridOptions, grid_map};
+    use crate::world::test_grid_world;
+    use crate::{World, WorldConfig};
 
     fn world() -> World {
-        let map = grid_map(&GridOptions {
-            size: 3,
-            ..GridOptions::default()
-        });
-        let net = LaneNetwork::build(&map).expect("grid map builds");
-        let mut world = World::new(net, WorldConfig::default());
+        let mut world = test_grid_world(3, WorldConfig::default());
         populate(&mut world, 30);
         world
     }

@@ -50,35 +50,31 @@ impl World {
                 }
                 followed
             }
-            None => {
-                let chunks: Vec<Followed> = self
-                    .vehicles
-                    .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-                    .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
-                    .zip(self.junctions.chunk_lists(n))
-                    .zip(self.index.chunk_fillers(n))
-                    .enumerate()
-                    .map(
-                        |(c, (((vehicles, rows), junction_list), mut index_items))| {
-                            // In chunks, so that the loop can look at the vehicles ahead of it.
-                            let mut followed = Followed::default();
-                            for (k, row) in rows.iter_mut().enumerate() {
-                                prefetch::paths_ahead(follow.net, vehicles, k);
-                                prefetch::conflicts_ahead(follow.net, vehicles, k);
-                                let i = c * MIN_VEHICLES_PER_TASK + k;
-                                let lists = (row, &mut *junction_list, &mut index_items);
-                                follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
-                            }
-                            followed
-                        },
-                    )
-                    .collect();
-                let mut followed = Followed::default();
-                for chunk in chunks {
-                    followed.append(chunk);
-                }
-                followed
-            }
+            None => self
+                .vehicles
+                .par_chunks_mut(MIN_VEHICLES_PER_TASK)
+                .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+                .zip(self.junctions.chunk_lists(n))
+                .zip(self.index.chunk_fillers(n))
+                .enumerate()
+                .map(
+                    |(c, (((vehicles, rows), junction_list), mut index_items))| {
+                        // In chunks, so that the loop can look at the vehicles ahead of it.
+                        let mut followed = Followed::default();
+                        for (k, row) in rows.iter_mut().enumerate() {
+                            prefetch::paths_ahead(follow.net, vehicles, k);
+                            prefetch::conflicts_ahead(follow.net, vehicles, k);
+                            let i = c * MIN_VEHICLES_PER_TASK + k;
+                            let lists = (row, &mut *junction_list, &mut index_items);
+                            follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
+                        }
+                        followed
+                    },
+                )
+                // Gathered, then joined in chunk order.
+                .collect::<Vec<Followed>>()
+                .into_iter()
+                .collect(),
         };
         // With those held when what was done ahead was dropped; in id order,
         // whatever the vehicles' order in the list.
@@ -93,9 +89,7 @@ impl World {
         }
         followed.leaving
     }
-}
 
-impl World {
     /// Drops the lane following the last motion pass did ahead, when its
     /// indices no longer hold or its facts may have changed. The lanes it
     /// advanced and the branches it chose stand: the choices are held for
@@ -124,10 +118,15 @@ pub(super) struct Followed {
     leaving: Vec<usize>,
 }
 
-impl Followed {
-    pub(super) fn append(&mut self, mut later: Followed) {
-        self.decisions.append(&mut later.decisions);
-        self.leaving.append(&mut later.leaving);
+/// The chunks' results joined in chunk order.
+impl FromIterator<Followed> for Followed {
+    fn from_iter<I: IntoIterator<Item = Followed>>(chunks: I) -> Self {
+        let mut all = Followed::default();
+        for mut chunk in chunks {
+            all.decisions.append(&mut chunk.decisions);
+            all.leaving.append(&mut chunk.leaving);
+        }
+        all
     }
 }
 

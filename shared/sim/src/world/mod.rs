@@ -375,9 +375,8 @@ impl World {
     pub fn remove_vehicle(&mut self, id: VehicleId) -> usize {
         // A vehicle leaving is not followed, and the list will shift.
         self.drop_prefollowed();
-        match self.vehicles.iter().position(|v| v.id == id) {
-            Some(i) if !self.vehicles[i].should_despawn => {
-                let v = &mut self.vehicles[i];
+        match self.vehicles.iter_mut().find(|v| v.id == id) {
+            Some(v) if !v.should_despawn => {
                 v.should_despawn = true;
                 v.despawn_reason = Some(DespawnReason::Removed);
                 1
@@ -407,4 +406,17 @@ impl World {
         self.config.max_vehicles = max_vehicles;
         self.index = LaneIndex::empty(self.net.lanes.len());
     }
+}
+
+/// An empty world on a generated `size` x `size` grid, for the crate's unit
+/// tests. (They cannot call `trafficmesh_maps::grid_world`: in a test build a
+/// dev-dependency's `World` is another type than the crate's own.)
+#[cfg(test)]
+pub(crate) fn test_grid_world(size: usize, config: WorldConfig) -> World {
+    use trafficmesh_maps::{GridOptions, grid_map};
+    let map = grid_map(&GridOptions {
+        size,
+        ..GridOptions::default()
+    });
+    World::new(LaneNetwork::build(&map).expect("grid map builds"), config)
 }

@@ -21,8 +21,14 @@ use crate::world::MIN_VEHICLES_PER_TASK;
 impl World {
     /// Moves every vehicle by its perception and returns the sum of the
     /// trajectory digests of those that stay. `leaving` (ascending) are the
-    /// vehicles that leave at the end of this tick: they do not move.
-    pub(super) fn move_and_follow(&mut self, perceptions: &[Perception], leaving: &[usize]) -> u64 {
+    /// vehicles that leave at the end of this tick: they do not move. With
+    /// `follow_ahead`, also does the next tick's lane following.
+    pub(super) fn move_and_follow(
+        &mut self,
+        perceptions: &[Perception],
+        leaving: &[usize],
+        follow_ahead: bool,
+    ) -> u64 {
         let dt = self.config.dt;
         // The motion pass also does the next tick's lane following while each
         // vehicle is at hand, for the vehicles that stay: at the index each
@@ -75,8 +81,10 @@ impl World {
                             continue;
                         }
                         digest_sum = digest_sum.wrapping_add(pose_digest(v));
-                        let lists = (&mut rows[stayed], &mut *junction_list, &mut index_items);
-                        follow.vehicle(v, start + stayed, lists, &mut followed);
+                        if follow_ahead {
+                            let lists = (&mut rows[stayed], &mut *junction_list, &mut index_items);
+                            follow.vehicle(v, start + stayed, lists, &mut followed);
+                        }
                         stayed += 1;
                     }
                     debug_assert_eq!(stayed, rows.len(), "the leaving list matches the flags");
@@ -84,14 +92,10 @@ impl World {
                 },
             )
             .collect();
-        let mut digest_sum = 0u64;
-        let mut followed = Followed::default();
-        for (digest, chunk) in chunks {
-            digest_sum = digest_sum.wrapping_add(digest);
-            followed.append(chunk);
-        }
+        let digest_sum = chunks.iter().fold(0u64, |sum, c| sum.wrapping_add(c.0));
+        let followed: Followed = chunks.into_iter().map(|(_, chunk)| chunk).collect();
         self.row.truncate(staying);
-        self.prefollowed = Some((staying, followed));
+        self.prefollowed = follow_ahead.then_some((staying, followed));
         digest_sum
     }
 }

@@ -6,7 +6,6 @@ use std::time::{Duration, Instant};
 /// The phases of one tick, in the order they run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Phase {
-    Regroup,
     Lights,
     Spawn,
     FollowLanes,
@@ -17,11 +16,11 @@ pub enum Phase {
     Zebra,
     Motion,
     Despawn,
+    Regroup,
 }
 
 impl Phase {
     pub const ALL: [Phase; 11] = [
-        Phase::Regroup,
         Phase::Lights,
         Phase::Spawn,
         Phase::FollowLanes,
@@ -32,6 +31,7 @@ impl Phase {
         Phase::Zebra,
         Phase::Motion,
         Phase::Despawn,
+        Phase::Regroup,
     ];
 
     pub fn name(self) -> &'static str {

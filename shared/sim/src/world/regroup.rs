@@ -7,7 +7,6 @@
 //! the same with or without it.
 
 use super::World;
-use super::phases::Phase;
 use crate::world::MIN_VEHICLES_PER_TASK;
 use rayon::prelude::*;
 
@@ -17,18 +16,19 @@ use rayon::prelude::*;
 pub const DEFAULT_INTERVAL: u64 = 50;
 
 impl World {
-    /// Regroups the list when the interval says so.
-    pub(super) fn regroup_phase(&mut self) {
+    /// Whether the tick under way ends by regrouping the list: every
+    /// `regroup_interval` ticks.
+    pub(super) fn regroup_due(&self) -> bool {
         let interval = self.config.regroup_interval;
-        if interval > 0 && self.ticks.is_multiple_of(interval) && self.vehicles.len() > 1 {
-            self.regroup_by_lane();
-        }
-        self.phase_times.lap(Phase::Regroup);
+        interval > 0 && (self.ticks + 1).is_multiple_of(interval)
     }
 
     /// Orders the vehicles by the lane they are on, keeping their order
-    /// within a lane (any order would do: none decides anything).
-    fn regroup_by_lane(&mut self) {
+    /// within a lane (any order would do: none decides anything). At the end
+    /// of a tick whose motion pass did not follow the lanes ahead, so that
+    /// nothing is at the old places.
+    pub(super) fn regroup_by_lane(&mut self) {
+        debug_assert!(self.prefollowed.is_none(), "nothing done ahead");
         // Lane and place packed in one integer: the sort compares no tuples
         // and reads no vehicle.
         let mut keys: Vec<u64> = self
@@ -42,8 +42,6 @@ impl World {
         // The low half is the place, below 2^32 (the list's length is).
         let mut order: Vec<u32> = keys.into_iter().map(|key| key as u32).collect();
         permute(&mut self.vehicles, &mut order);
-        // What the last motion pass did ahead is at the old indices.
-        self.drop_prefollowed();
     }
 }
 
@@ -69,24 +67,19 @@ fn permute<T>(items: &mut [T], order: &mut [u32]) {
 #[cfg(test)]
 mod tests {
     use super::permute;
+    use crate::WorldConfig;
     use crate::lane_index::LaneIndex;
-    use crate::network::LaneNetwork;
-    use crate::{World, WorldConfig};
-    use trafficmesh_maps::{GridOptions, grid_map};
+    use crate::world::test_grid_world;
 
     /// Two bodies level on a lane (a lane-change ghost beside its twin is
     /// the case that happens) come in id order out of the lane index,
     /// whichever of them lies first in the list.
     #[test]
     fn level_bodies_on_a_lane_are_indexed_in_id_order() {
-        let map = grid_map(&GridOptions {
-            size: 2,
-            ..GridOptions::default()
-        });
-        let net = LaneNetwork::build(&map).expect("grid map builds");
+        let mut world = test_grid_world(2, WorldConfig::default());
+        let net = world.network();
         let lane = net.lanes.iter().find(|l| !l.intersection).expect("a road");
         let (name, lane_id) = (lane.name.clone(), net.lane_id(&lane.name).expect("named"));
-        let mut world = World::new(net, WorldConfig::default());
         let first = world.place_vehicle("Taxi", &name, 30.0, 0.0).unwrap();
         let second = world.place_vehicle("Taxi", &name, 30.0, 0.0).unwrap();
         for reversed in [false, true] {

@@ -1,6 +1,6 @@
-//! One tick: regrouping the list now and then (`regroup.rs`), spawn, lane
-//! following, the lane index, Cognition, deadlock breaking, the motion pass
-//! (`motion.rs`), despawn.
+//! One tick: spawn, lane following, the lane index, Cognition, deadlock
+//! breaking, the motion pass (`motion.rs`), despawn, and now and then
+//! regrouping the list (`regroup.rs`).
 
 use rayon::prelude::*;
 
@@ -64,7 +64,6 @@ impl World {
     fn step_phases(&mut self) {
         let dt = self.config.dt;
         self.phase_times.begin();
-        self.regroup_phase();
         self.lights.update(self.time);
         self.phase_times.lap(Phase::Lights);
         self.spawn_phase();
@@ -97,7 +96,10 @@ impl World {
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
-        let digest_sum = self.move_and_follow(&perceptions, &leaving);
+        // A tick that ends by regrouping the list leaves the next tick's lane
+        // following to it: done ahead, it would be at the old places.
+        let regroup = self.regroup_due();
+        let digest_sum = self.move_and_follow(&perceptions, &leaving, !regroup);
         (self.perceptions, self.waits) = (perceptions, waits);
         self.phase_times.lap(Phase::Motion);
         self.time += dt;
@@ -108,6 +110,10 @@ impl World {
         self.trajectory
             .add_tick_digest(self.vehicles.len(), digest_sum);
         self.phase_times.lap(Phase::Despawn);
+        if regroup {
+            self.regroup_by_lane();
+        }
+        self.phase_times.lap(Phase::Regroup);
     }
 
     /// The lane changes routes need, where there is a gap (or where two
@@ -266,23 +272,21 @@ mod tests {
     use crate::cognition::right_of_way::JunctionBuckets;
     use crate::lane_index::LaneIndex;
     use crate::populate::populate;
+    use crate::world::test_grid_world;
     use crate::{World, WorldConfig};
-    use trafficmesh_maps::{GridOptions, grid_map};
 
     /// The lane index and the junction members a tick takes in its
     /// lane-following pass are those a pass of their own would take.
     #[test]
     fn the_items_taken_while_following_lanes_match_a_rebuild() {
-        let map = grid_map(&GridOptions {
-            size: 6,
-            ..GridOptions::default()
-        });
-        let net = LaneNetwork::build(&map).expect("grid map builds");
         let config = WorldConfig {
             max_vehicles: 3000,
+            // A tick that ends by regrouping follows nothing ahead; this test
+            // is about the ticks that do (regrouping: tests/list_order.rs).
+            regroup_interval: 0,
             ..WorldConfig::default()
         };
-        let mut world = World::new(net, config);
+        let mut world = test_grid_world(6, config);
         // More than one chunk of vehicles, so that the chunks are joined.
         populate(&mut world, 2 * MIN_VEHICLES_PER_TASK + 100);
         assert!(world.vehicles.len() > 2 * MIN_VEHICLES_PER_TASK);
