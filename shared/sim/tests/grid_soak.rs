@@ -6,7 +6,6 @@ mod support;
 use std::collections::HashMap;
 
 use support::*;
-use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_sim::{SimEvent, WorldConfig};
 
 /// Longer than any wait the grid's rules can cause: a 60 s signal cycle and a queue.
@@ -14,12 +13,8 @@ const LONGEST_PLAUSIBLE_STOP: f64 = 240.0;
 
 #[test]
 fn grid_5x5_thirty_minutes_no_overlap_and_no_endless_stop() {
-    let map = grid_map(&GridOptions {
-        size: 5,
-        ..GridOptions::default()
-    });
-    let mut w = world(
-        &map,
+    let mut w = grid_world(
+        5,
         WorldConfig {
             max_vehicles: 250,
             seed: 3,

@@ -5,7 +5,6 @@
 mod support;
 
 use support::*;
-use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_sim::populate::populate;
 use trafficmesh_sim::{SimEvent, WorldConfig};
 
@@ -17,12 +16,8 @@ struct Run {
 }
 
 fn run(regroup_interval: u64) -> Run {
-    let map = grid_map(&GridOptions {
-        size: 6,
-        ..GridOptions::default()
-    });
-    let mut w = world(
-        &map,
+    let mut w = grid_world(
+        6,
         WorldConfig {
             max_vehicles: 2600,
             seed: 5,

@@ -37,6 +37,15 @@ pub fn world(map: &MapFile, config: WorldConfig) -> World {
     World::new(net, config)
 }
 
+/// A world on a generated `size` x `size` signalised grid.
+pub fn grid_world(size: usize, config: WorldConfig) -> World {
+    let map = trafficmesh_maps::grid_map(&trafficmesh_maps::GridOptions {
+        size,
+        ..Default::default()
+    });
+    world(&map, config)
+}
+
 /// An eastbound road along y = 0: `approach` (0..200 m, stop line at 190 m, light
 /// group "L"), a junction lane (200..220) and an exit (220..600).
 pub fn signalised_road() -> MapFile {
