@@ -147,6 +147,7 @@ fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
                     Some(trafficmesh_sim::spawn::Route {
                         lanes: lanes.into(),
                         leave_at_end: order.leave_at_route_end,
+                        depart: None,
                     })
                 }
             };

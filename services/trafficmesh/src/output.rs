@@ -19,6 +19,8 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
         "stops",
         "time_stopped_s",
         "end_reason",
+        "depart_delay_s",
+        "time_loss_s",
     ])?;
     for t in finished {
         w.write_record([
@@ -30,6 +32,8 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
             t.stops.to_string(),
             format!("{:.2}", t.time_stopped),
             t.reason.as_str().to_string(),
+            format!("{:.2}", t.spawn_time - t.depart),
+            format!("{:.2}", t.time_loss),
         ])?;
     }
     // The world keeps its vehicles grouped by lane; the file lists them by id.
@@ -45,6 +49,8 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
             v.trip.stops.to_string(),
             format!("{:.2}", v.trip.time_stopped),
             "running".to_string(),
+            format!("{:.2}", v.trip.spawn_time - v.trip.depart),
+            format!("{:.2}", v.trip.time_loss),
         ])?;
     }
     trafficmesh_maps::write_atomic(path, &w.into_inner()?)?;

@@ -4,7 +4,7 @@
 //! (each vehicle takes the catalogue kind nearest in length). Edge routes
 //! become lane routes through the imported network's connections.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashMap;
 
 use roxmltree::Node;
 use trafficmesh_model::map::{DepartureDef, MapFile, SimulatorDef};
@@ -26,9 +26,17 @@ struct Network<'m> {
     /// Normal lanes of each edge, by lane index.
     edge_lanes: HashMap<&'m str, Vec<&'m str>>,
     next: HashMap<&'m str, &'m [String]>,
-    /// Routes that need a lane change on the way.
+    length: HashMap<&'m str, f64>,
+    /// Lane changes the chosen lane routes need on the way.
     shifts: std::cell::Cell<usize>,
 }
+
+/// The cheapest way on from a lane: its cost and its lanes (that lane first).
+type Continuation = Option<(f64, Vec<String>)>;
+
+/// Lanes shorter than this make a lane change on them dearer: there is little
+/// or no room to wait for a gap (netconvert splits edges into pieces of 0.2 m).
+const ROOMY_LANE: f64 = 50.0;
 
 impl<'m> Network<'m> {
     fn new(map: &'m MapFile) -> Self {
@@ -40,6 +48,11 @@ impl<'m> Network<'m> {
                 edge_lanes.entry(edge).or_default().push(&l.name);
             }
         }
+        let length = map
+            .lanes
+            .iter()
+            .map(|l| (l.name.as_str(), l.length()))
+            .collect();
         Network {
             edge_lanes,
             next: map
@@ -47,75 +60,103 @@ impl<'m> Network<'m> {
                 .iter()
                 .map(|l| (l.name.as_str(), l.next.as_slice()))
                 .collect(),
+            length,
             shifts: std::cell::Cell::new(0),
         }
     }
 
-    /// Lanes from a lane of `edges[0]` through every edge in turn (internal
-    /// lanes between them included), or None when the edges are not connected.
-    fn lane_route(&self, edges: &[&str]) -> Option<Vec<String>> {
-        let mut dead: HashSet<(&str, usize)> = HashSet::new();
-        for start in self.edge_lanes.get(edges.first()?)? {
-            if let Some(r) = self.extend(start, edges, 1, &mut dead) {
-                return Some(r);
-            }
-        }
-        None
+    /// The cost of a lane change along `lane`: one, and far more where the
+    /// lane is too short to wait on for a gap.
+    fn shift_cost(&self, lane: &str) -> f64 {
+        let length = self.length.get(lane).copied().unwrap_or(0.0);
+        1.0 + 100.0 * (1.0 - (length / ROOMY_LANE).min(1.0))
     }
 
+    /// Lanes from a lane of `edges[0]` through every edge in turn (internal
+    /// lanes between them included), or None when the edges are not connected.
+    /// Of all lane routes it takes one with the fewest lane changes, placed
+    /// where there is room for them (SUMO's `departLane="best"` and its
+    /// strategic lane choice), the rightmost among equals.
+    fn lane_route(&self, edges: &[&str]) -> Option<Vec<String>> {
+        let mut memo: HashMap<(&str, usize), Continuation> = HashMap::new();
+        let best = self
+            .edge_lanes
+            .get(edges.first()?)?
+            .iter()
+            .filter_map(|start| self.extend(start, edges, 1, &mut memo))
+            .min_by(|a, b| a.0.total_cmp(&b.0))?;
+        // Where two listed lanes are not linked, the vehicle changes lanes.
+        let changes = best
+            .1
+            .windows(2)
+            .filter(|w| {
+                !self
+                    .next
+                    .get(w[0].as_str())
+                    .is_some_and(|n| n.contains(&w[1]))
+            })
+            .count();
+        self.shifts.set(self.shifts.get() + changes);
+        Some(best.1)
+    }
+
+    /// The cheapest continuation from `lane` (a lane of `edges[k - 1]`).
     fn extend<'a>(
         &'a self,
         lane: &'a str,
         edges: &[&str],
         k: usize,
-        dead: &mut HashSet<(&'a str, usize)>,
-    ) -> Option<Vec<String>> {
+        memo: &mut HashMap<(&'a str, usize), Continuation>,
+    ) -> Continuation {
         if k == edges.len() {
-            return Some(vec![lane.to_string()]);
+            return Some((0.0, vec![lane.to_string()]));
         }
-        if dead.contains(&(lane, k)) {
-            return None;
+        if let Some(known) = memo.get(&(lane, k)) {
+            return known.clone();
         }
+        let mut best: Continuation = None;
         // Through up to three internal lanes to a lane of the next edge.
         let mut frontier: Vec<Vec<&str>> = vec![vec![lane]];
         for _ in 0..4 {
             let mut further = Vec::new();
             for path in frontier {
-                let last = *path.last().unwrap();
+                let last = *path.last().expect("a path is never empty");
                 for n in self.next.get(last).copied().unwrap_or(&[]) {
                     let mut p = path.clone();
                     p.push(n.as_str());
                     if n.starts_with(':') {
                         further.push(p);
-                    } else if n.rsplit_once('_').map(|(e, _)| e) == Some(edges[k]) {
-                        // The lane reached first; else a sibling lane of the same
-                        // edge, which the vehicle changes to on the way: the
-                        // route goes on from the sibling's successors.
-                        let siblings = self
-                            .edge_lanes
-                            .get(edges[k])
-                            .map(Vec::as_slice)
-                            .unwrap_or(&[]);
-                        let candidates = std::iter::once(n.as_str())
-                            .chain(siblings.iter().copied().filter(|s| *s != n.as_str()));
-                        for (i, entry) in candidates.enumerate() {
-                            if let Some(rest) = self.extend(entry, edges, k + 1, dead) {
-                                if i > 0 {
-                                    self.shifts.set(self.shifts.get() + 1);
-                                }
-                                let mut out: Vec<String> =
-                                    p.iter().map(|s| s.to_string()).collect();
-                                out.extend(rest.into_iter().skip(1));
-                                return Some(out);
-                            }
+                        continue;
+                    }
+                    if n.rsplit_once('_').map(|(e, _)| e) != Some(edges[k]) {
+                        continue;
+                    }
+                    // Go on from the lane reached, or change on it to a
+                    // sibling of the same edge and go on from there.
+                    let siblings = self
+                        .edge_lanes
+                        .get(edges[k])
+                        .map(Vec::as_slice)
+                        .unwrap_or(&[]);
+                    let candidates = std::iter::once(n.as_str())
+                        .chain(siblings.iter().copied().filter(|s| *s != n.as_str()));
+                    for (i, entry) in candidates.enumerate() {
+                        let Some((cost, rest)) = self.extend(entry, edges, k + 1, memo) else {
+                            continue;
+                        };
+                        let cost = cost + if i > 0 { self.shift_cost(n) } else { 0.0 };
+                        if best.as_ref().is_none_or(|b| cost < b.0) {
+                            let mut out: Vec<String> = p.iter().map(|s| s.to_string()).collect();
+                            out.extend(rest.into_iter().skip(1));
+                            best = Some((cost, out));
                         }
                     }
                 }
             }
             frontier = further;
         }
-        dead.insert((lane, k));
-        None
+        memo.insert((lane, k), best.clone());
+        best
     }
 }
 

@@ -13,6 +13,9 @@ pub enum DespawnReason {
     Removed,
     /// Restart disposed of it.
     Restart,
+    /// Stood still for the jam timeout and was taken off the road (SUMO's
+    /// teleport as the last resort against gridlock).
+    Jammed,
 }
 
 impl DespawnReason {
@@ -22,6 +25,7 @@ impl DespawnReason {
             DespawnReason::RouteEnd => "route_end",
             DespawnReason::Removed => "removed",
             DespawnReason::Restart => "restart",
+            DespawnReason::Jammed => "jammed",
         }
     }
 }
@@ -32,7 +36,11 @@ pub struct TripRecord {
     pub id: VehicleId,
     pub kind: String,
     pub spawn_time: f64,
+    /// When it was due to depart; the departure delay is `spawn_time - depart`.
+    pub depart: f64,
     pub despawn_time: f64,
+    /// Seconds lost against driving at the lanes' speed limits throughout.
+    pub time_loss: f64,
     pub distance: f64,
     pub stops: u32,
     pub time_stopped: f64,

@@ -39,4 +39,4 @@ pub use events::{DespawnReason, SimEvent, TripRecord};
 pub use network::{LaneId, LaneNetwork};
 pub use trajectory::TrajectoryHash;
 pub use vehicle::{Vehicle, VehicleId};
-pub use world::{World, WorldConfig, WorldError};
+pub use world::{WaitStats, World, WorldConfig, WorldError};

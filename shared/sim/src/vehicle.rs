@@ -68,6 +68,12 @@ pub struct FirstJunctionLane {
 #[derive(Clone, Copy, Debug, Default)]
 pub struct TripStats {
     pub spawn_time: f64,
+    /// When it was due to depart (a timetable's), else its spawn time.
+    pub depart: f64,
+    /// Seconds it has stood still without a break (SUMO's waiting time).
+    pub wait: f64,
+    /// Seconds lost against driving at its lanes' speed limits throughout.
+    pub time_loss: f64,
     pub distance: f64,
     pub stops: u32,
     pub time_stopped: f64,

@@ -25,7 +25,11 @@ pub fn turn_signal(net: &LaneNetwork, v: &Vehicle) -> TurnSignal {
         .unwrap_or(TurnSignal::Off)
 }
 
-pub fn update_trip(v: &mut Vehicle, dt: f64) {
+/// Below this speed a vehicle is waiting (SUMO's waiting-time threshold).
+pub const WAITING_SPEED: f64 = 0.1;
+
+/// Trip accounting after the tick's motion; `speed_limit` is the lane's.
+pub fn update_trip(v: &mut Vehicle, dt: f64, speed_limit: f64) {
     let stopped = v.speed < STOPPED_SPEED;
     if stopped {
         if !v.trip.stopped {
@@ -34,4 +38,12 @@ pub fn update_trip(v: &mut Vehicle, dt: f64) {
         v.trip.time_stopped += dt;
     }
     v.trip.stopped = stopped;
+    if v.speed < WAITING_SPEED {
+        v.trip.wait += dt;
+    } else {
+        v.trip.wait = 0.0;
+    }
+    if speed_limit > 0.0 {
+        v.trip.time_loss += dt * (1.0 - v.speed / speed_limit).max(0.0);
+    }
 }

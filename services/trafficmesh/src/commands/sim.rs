@@ -8,7 +8,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
-use trafficmesh_sim::{SimEvent, TripRecord, World, WorldConfig};
+use trafficmesh_sim::{DespawnReason, SimEvent, TripRecord, World, WorldConfig};
 
 use super::thread_pool;
 use crate::output;
@@ -52,6 +52,10 @@ pub struct SimArgs {
     /// Print one JSON object with the run's figures on stdout.
     #[arg(long)]
     json: bool,
+    /// Seconds a vehicle may stand still before it is taken off the road as
+    /// jammed and counted (SUMO's time-to-teleport); 0 never does.
+    #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
+    jam_timeout: f64,
 }
 
 /// The seed's SpeedLimitSource.
@@ -76,6 +80,18 @@ struct Summary {
     max_vehicles: usize,
     spawned: u64,
     despawned: u64,
+    /// Vehicles that entered the road (the same as `spawned`, in SUMO's word).
+    inserted: u64,
+    /// Vehicles that reached the end of their route or of the road.
+    arrived: u64,
+    /// Vehicles due to depart still waiting for room at the end.
+    insertion_backlog: usize,
+    /// The longest standstill of any vehicle, seconds.
+    max_wait_s: f64,
+    /// Vehicles standing for 60 s or more at the end, not at a red light.
+    stuck_vehicles: usize,
+    /// Vehicles taken off the road by `--jam-timeout`.
+    jam_resolutions: u64,
     branch_decisions: u64,
     trajectory_hash: String,
 }
@@ -85,6 +101,12 @@ pub fn run(a: SimArgs) -> Result<()> {
         bail!(
             "--duration must be a positive number of seconds, got {}",
             a.duration
+        );
+    }
+    if !(a.jam_timeout.is_finite() && a.jam_timeout >= 0.0) {
+        bail!(
+            "--jam-timeout must be 0 (never) or a positive number of seconds, got {}",
+            a.jam_timeout
         );
     }
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
@@ -108,6 +130,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         max_vehicles: a.max_vehicles,
         dt: a.dt,
         vehicle,
+        jam_timeout: a.jam_timeout,
         ..WorldConfig::default()
     };
     let mut world = World::new(net, config);
@@ -129,6 +152,7 @@ pub fn run(a: SimArgs) -> Result<()> {
 
     let mut trips: Vec<TripRecord> = Vec::new();
     let (mut vehicle_steps, mut peak, mut spawned, mut despawned) = (0u64, 0usize, 0u64, 0u64);
+    let mut arrived = 0u64;
     let started = Instant::now();
     pool.install(|| {
         for tick in 0..ticks {
@@ -141,6 +165,12 @@ pub fn run(a: SimArgs) -> Result<()> {
                     SimEvent::Spawned { .. } => spawned += 1,
                     SimEvent::Despawned(trip) => {
                         despawned += 1;
+                        if matches!(
+                            trip.reason,
+                            DespawnReason::RouteEnd | DespawnReason::DeadEnd
+                        ) {
+                            arrived += 1;
+                        }
                         trips.push(trip);
                     }
                     _ => {}
@@ -166,6 +196,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             &world.spawn_config(),
         )?;
     }
+    let waits = world.wait_stats();
     let summary = Summary {
         map: a.map.display().to_string(),
         seed: a.seed,
@@ -180,6 +211,12 @@ pub fn run(a: SimArgs) -> Result<()> {
         max_vehicles: peak,
         spawned,
         despawned,
+        inserted: spawned,
+        arrived,
+        insertion_backlog: world.insertion_backlog(),
+        max_wait_s: waits.max_wait,
+        stuck_vehicles: world.stuck_vehicles(),
+        jam_resolutions: waits.jam_resolutions,
         branch_decisions: world.branch_stats().total(),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
     };

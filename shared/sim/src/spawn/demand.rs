@@ -43,7 +43,7 @@ impl TrafficSimulator for DemandSimulator {
         // The first waiting departure of each spawn lane; one spawn per lane per tick.
         let mut lanes: Vec<LaneId> = Vec::new();
         for &d in &self.waiting {
-            let (_, route, kind) = &self.departures[d];
+            let (depart, route, kind) = &self.departures[d];
             if lanes.contains(&route[0]) {
                 continue;
             }
@@ -54,10 +54,15 @@ impl TrafficSimulator for DemandSimulator {
                 route: Some(super::Route {
                     lanes: route.clone(),
                     leave_at_end: true,
+                    depart: Some(*depart),
                 }),
                 slot: d,
             });
         }
+    }
+
+    fn backlog(&self) -> usize {
+        self.waiting.len()
     }
 
     fn spawned(&mut self, slot: usize) {

@@ -53,6 +53,7 @@ impl TrafficSimulator for ExternalSimulator {
                     route: p.route.clone().map(|lanes| super::Route {
                         lanes,
                         leave_at_end: false,
+                        depart: None,
                     }),
                     slot,
                 }),

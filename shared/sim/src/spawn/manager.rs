@@ -70,6 +70,11 @@ pub struct SpawnManager {
 impl SpawnManager {
     /// The map's simulators (unless `with_map_simulators` is false), each with
     /// its own random stream from `seed`.
+    /// Vehicles due to depart that have not found room yet, all simulators.
+    pub fn backlog(&self) -> usize {
+        self.simulators.iter().map(|s| s.backlog()).sum()
+    }
+
     pub fn new(net: &LaneNetwork, seed: u64, with_map_simulators: bool) -> Self {
         let simulators = if with_map_simulators {
             from_specs(&net.simulators, seed, 0)

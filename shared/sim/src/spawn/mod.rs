@@ -29,6 +29,9 @@ use crate::rng::SimRng;
 pub struct Route {
     pub lanes: Arc<[LaneId]>,
     pub leave_at_end: bool,
+    /// The timetable's departure time, for a demand's vehicle (its departure
+    /// delay is counted from it); None where a vehicle spawns when it can.
+    pub depart: Option<f64>,
 }
 
 /// One spawn proposal: a vehicle kind at the start of a lane.
@@ -54,6 +57,11 @@ pub trait TrafficSimulator: Send {
     /// A fixed priority added to the seed's anti-starvation counter when
     /// proposals compete for one spawn point (0 for the built-in simulators).
     fn priority(&self) -> i64 {
+        0
+    }
+    /// Vehicles due to depart that have not found room yet (SUMO's insertion
+    /// backlog); 0 for simulators without a timetable.
+    fn backlog(&self) -> usize {
         0
     }
 }

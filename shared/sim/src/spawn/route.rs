@@ -51,6 +51,7 @@ impl TrafficSimulator for RouteTrafficSimulator {
             route: Some(super::Route {
                 lanes: self.route.clone(),
                 leave_at_end: false,
+                depart: None,
             }),
             slot: 0,
         });

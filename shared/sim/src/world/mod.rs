@@ -4,6 +4,7 @@
 
 mod awake;
 mod follow;
+mod jams;
 mod motion;
 mod phases;
 mod regroup;
@@ -29,9 +30,13 @@ use crate::trajectory::TrajectoryHash;
 use crate::vehicle::{Vehicle, VehicleId};
 
 pub(crate) use awake::join_if;
+pub use jams::{STUCK_AFTER, WaitStats};
 pub use phases::{Phase, PhaseTimes};
 pub use spawning::SpawnRejection;
 pub use step::MIN_VEHICLES_PER_TASK;
+
+/// SUMO's default `time-to-teleport`, seconds.
+pub const DEFAULT_JAM_TIMEOUT: f64 = 300.0;
 
 /// Run parameters, with the seed's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -47,6 +52,9 @@ pub struct WorldConfig {
     /// Ticks between regroupings of the vehicle list by lane (0: never). A
     /// matter of speed only: the trajectories are the same for any value.
     pub regroup_interval: u64,
+    /// Seconds a vehicle may stand still before it is taken off the road as
+    /// jammed (SUMO's `time-to-teleport`); 0 never does.
+    pub jam_timeout: f64,
 }
 
 impl Default for WorldConfig {
@@ -58,6 +66,7 @@ impl Default for WorldConfig {
             dt: 0.02,
             vehicle: NpcVehicleConfig::default(),
             regroup_interval: regroup::DEFAULT_INTERVAL,
+            jam_timeout: DEFAULT_JAM_TIMEOUT,
         }
     }
 }
@@ -113,6 +122,7 @@ pub struct World {
     next_id: VehicleId,
     events: Vec<SimEvent>,
     phase_times: PhaseTimes,
+    wait_stats: jams::WaitStats,
 }
 
 impl World {
@@ -147,6 +157,7 @@ impl World {
             next_id: 0,
             events: Vec::new(),
             phase_times: PhaseTimes::default(),
+            wait_stats: jams::WaitStats::default(),
         }
     }
 

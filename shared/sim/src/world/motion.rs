@@ -9,7 +9,7 @@ use super::World;
 use super::follow::{Follow, Followed};
 use crate::cognition::Perception;
 use crate::cognition::right_of_way::RowInfo;
-use crate::control::{step_speed, update_pose};
+use crate::control::{speed_limit, step_speed, update_pose};
 use crate::decision::decide;
 use crate::network::LaneNetwork;
 use crate::prefetch;
@@ -115,5 +115,5 @@ fn move_vehicle(
     v.speed_mode = decide(v, config);
     step_speed(net, v, config, dt);
     update_pose(net, v);
-    update_trip(v, dt);
+    update_trip(v, dt, speed_limit(net, v, config));
 }

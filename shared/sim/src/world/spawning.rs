@@ -183,6 +183,7 @@ impl World {
         route: Option<crate::spawn::Route>,
     ) -> VehicleId {
         let k = &self.net.kinds[kind];
+        let depart = route.as_ref().and_then(|r| r.depart);
         let id = self.next_id;
         self.next_id += 1;
         let mut v = Vehicle {
@@ -227,6 +228,7 @@ impl World {
             rng: SimRng::new(self.config.seed, (1 << 63) | id),
             trip: TripStats {
                 spawn_time: self.time,
+                depart: depart.unwrap_or(self.time),
                 ..TripStats::default()
             },
         };

@@ -25,7 +25,9 @@ pub(super) fn trip_record(
         id: v.id,
         kind: net.kinds[v.kind].name.clone(),
         spawn_time: v.trip.spawn_time,
+        depart: v.trip.depart,
         despawn_time: time,
+        time_loss: v.trip.time_loss,
         distance: v.trip.distance,
         stops: v.trip.stops,
         time_stopped: v.trip.time_stopped,
@@ -109,6 +111,7 @@ impl World {
         }
         self.trajectory
             .add_tick_digest(self.vehicles.len(), digest_sum);
+        self.resolve_jams();
         self.phase_times.lap(Phase::Despawn);
         if regroup {
             self.regroup_by_lane();
