@@ -120,7 +120,9 @@ fn sim_writes_trips_branch_csv_and_final_spawn_config() {
     let mut rows = trips.lines();
     assert_eq!(
         rows.next(),
-        Some("id,kind,spawn_time,despawn_time,distance_m,stops,time_stopped_s,end_reason")
+        Some(
+            "id,kind,spawn_time,despawn_time,distance_m,stops,time_stopped_s,end_reason,depart_delay_s,time_loss_s"
+        )
     );
     assert_eq!(
         rows.count() as u64,

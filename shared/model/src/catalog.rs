@@ -12,6 +12,9 @@ pub struct VehicleKind {
     /// Bumper-to-bumper length.
     pub length: f64,
     pub width: f64,
+    /// This type's driver model; None takes the run's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub driver: Option<crate::DriverModel>,
 }
 
 /// (name, bounds centre z, extents x, extents z) of the shipped prefabs.
@@ -36,6 +39,7 @@ pub fn builtin_kind(name: &str) -> Option<VehicleKind> {
             front: center_z + ext_z,
             length: 2.0 * ext_z,
             width: 2.0 * ext_x,
+            driver: None,
         },
     )
 }

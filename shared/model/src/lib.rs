@@ -6,6 +6,7 @@
 //! (de)serialising strings, reads no clock and knows nothing of Zenoh.
 
 pub mod catalog;
+pub mod driver_model;
 pub mod enums;
 pub mod map;
 pub mod spawn_config;
@@ -13,6 +14,7 @@ pub mod vehicle_config;
 pub mod wire;
 
 pub use catalog::{VehicleKind, builtin_kind};
+pub use driver_model::{DriverModel, IdmParams};
 pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};
 pub use map::{
     CrosswalkArea, CrosswalkDef, DepartureDef, LaneDef, LightGroupDef, LightProgram, MapFile,

@@ -27,6 +27,8 @@ pub struct NpcVehicleConfig {
     pub speed_limit_source: SpeedLimitSource,
     /// m/s; used when the source is FixedSpeedLimit (50 km/h).
     pub fixed_speed_limit: f64,
+    /// The driver model of vehicle types that do not choose their own.
+    pub driver_model: crate::DriverModel,
 }
 
 impl Default for NpcVehicleConfig {
@@ -38,6 +40,7 @@ impl Default for NpcVehicleConfig {
             absolute_deceleration: 20.0,
             speed_limit_source: SpeedLimitSource::FixedSpeedLimit,
             fixed_speed_limit: 13.89,
+            driver_model: crate::DriverModel::Awsim,
         }
     }
 }
@@ -58,6 +61,9 @@ impl NpcVehicleConfig {
                     "vehicle config: {name} must be a positive number, got {value}"
                 ));
             }
+        }
+        if let crate::DriverModel::Realistic(idm) = &self.driver_model {
+            idm.validate()?;
         }
         Ok(())
     }

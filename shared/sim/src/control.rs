@@ -5,13 +5,15 @@
 //! integrates a yaw rate aimed at the next waypoint instead, which leaves a
 //! lateral error on curves).
 
-use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource, SpeedMode};
+use trafficmesh_model::{DriverModel, IdmParams, NpcVehicleConfig, SpeedLimitSource, SpeedMode};
 
 use crate::cognition::path::point_on_path;
 use crate::network::LaneNetwork;
 use crate::vehicle::{Pose, Vehicle};
 
 pub const SLOW_SPEED: f64 = 5.0;
+/// The `realistic` model's top speed on a curve or a turn (30 km/h).
+pub const TURN_SPEED: f64 = 8.33;
 
 /// (target speed, rate) for the mode.
 pub fn speed_target(mode: SpeedMode, speed_limit: f64, c: &NpcVehicleConfig) -> (f64, f64) {
@@ -39,14 +41,56 @@ fn move_towards(current: f64, target: f64, max_delta: f64) -> f64 {
     }
 }
 
-/// Updates speed and arc position.
+/// The driver model of the vehicle's type, else the run's.
+pub fn driver_model(net: &LaneNetwork, v: &Vehicle, c: &NpcVehicleConfig) -> DriverModel {
+    net.kinds[v.kind].driver.unwrap_or(c.driver_model)
+}
+
+/// Updates speed and arc position by the vehicle's driver model.
 pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: f64) {
-    let (target, rate) = speed_target(v.speed_mode, speed_limit(net, v, c), c);
-    let new_speed = move_towards(v.speed, target, rate * dt).max(0.0);
+    let new_speed = match driver_model(net, v, c) {
+        DriverModel::Awsim => {
+            let (target, rate) = speed_target(v.speed_mode, speed_limit(net, v, c), c);
+            move_towards(v.speed, target, rate * dt).max(0.0)
+        }
+        DriverModel::Realistic(idm) => realistic_speed(net, v, c, &idm, dt),
+    };
     v.acceleration = (new_speed - v.speed) / dt;
     v.speed = new_speed;
     v.s += v.speed * dt;
     v.trip.distance += v.speed * dt;
+}
+
+/// The IDM's next speed: the lower acceleration of following the body ahead
+/// and stopping at the nearest stop line (light, yield point, zebra) that the
+/// reference's rules say to stop at, braking no harder than the absolute
+/// deceleration.
+fn realistic_speed(
+    net: &LaneNetwork,
+    v: &Vehicle,
+    c: &NpcVehicleConfig,
+    idm: &IdmParams,
+    dt: f64,
+) -> f64 {
+    let mut desired = speed_limit(net, v, c).min(idm.max_speed);
+    if v.is_turning {
+        desired = desired.min(TURN_SPEED);
+    }
+    let stops =
+        crate::decision::stop_candidates(v, &crate::decision::StopDistances::at(v.speed, c));
+    let follow =
+        crate::idm::acceleration(idm, v.speed, desired, v.distance_to_front, v.front_speed);
+    let stop_line = stops.traffic_light.min(stops.right_of_way).min(stops.zebra);
+    // A stop line is a standing obstacle whose gap ends the margin before it.
+    let stop = crate::idm::acceleration(
+        idm,
+        v.speed,
+        desired,
+        stop_line - crate::idm::STOP_LINE_MARGIN + idm.min_gap,
+        0.0,
+    );
+    let a = follow.min(stop).max(-c.absolute_deceleration);
+    (v.speed + a * dt).max(0.0)
 }
 
 /// Recomputes pose, front and back points from the arc position. Both bumpers

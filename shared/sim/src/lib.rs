@@ -20,6 +20,7 @@ pub mod decision;
 pub mod ego;
 pub mod events;
 pub mod geometry;
+pub mod idm;
 pub mod lane_change;
 pub mod lane_index;
 pub mod lights;

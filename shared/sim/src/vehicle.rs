@@ -110,6 +110,8 @@ pub struct Vehicle {
     pub speed_mode: SpeedMode,
     pub is_turning: bool,
     pub distance_to_front: f64,
+    /// Speed of the vehicle ahead on the own path (0 for other obstacles).
+    pub front_speed: f64,
     /// Along-path metres from the front bumper to the light lane's stop line.
     pub distance_to_light: f64,
     pub first_junction_lane: Option<FirstJunctionLane>,

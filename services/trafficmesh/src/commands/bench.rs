@@ -23,6 +23,9 @@ pub enum BenchCommand {
     Admin(super::bench_admin::AdminArgs),
     /// SUMO and trafficmesh on the same SUMO network and routes, side by side.
     VsSumo(super::bench_vs_sumo::VsSumoArgs),
+    /// A queue of 20 cars released by a green light: discharge headway and
+    /// saturation flow per lane of a driver model.
+    Saturation(super::bench_saturation::SaturationArgs),
 }
 
 #[derive(Args)]
@@ -84,6 +87,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Cluster(a) => return super::bench_cluster::run(a),
         BenchCommand::Admin(a) => return super::bench_admin::run(a),
         BenchCommand::VsSumo(a) => return super::bench_vs_sumo::run(a),
+        BenchCommand::Saturation(a) => return super::bench_saturation::run(a),
     };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");

@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod bench_admin;
 pub mod bench_cluster;
+pub mod bench_saturation;
 mod bench_up;
 pub mod bench_vs_sumo;
 pub mod cluster_config;

@@ -40,6 +40,9 @@ pub struct Perception {
     pub distance_to_front: f64,
     /// Index of the vehicle that is the front obstacle, if one is.
     pub front_vehicle: Option<u32>,
+    /// Its speed along the own path: a leader's speed; 0 for a vehicle
+    /// crossing the path or any other obstacle.
+    pub front_speed: f64,
     pub is_turning: bool,
     pub light_lane: Option<LaneId>,
     pub distance_to_light: f64,
@@ -75,6 +78,11 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
     Perception {
         distance_to_front: front.distance,
         front_vehicle: front.vehicle,
+        front_speed: front
+            .vehicle
+            .map(|k| &snap.vehicles[k as usize])
+            .filter(|ahead| v.path.contains(&ahead.path[0]))
+            .map_or(0.0, |ahead| ahead.speed),
         is_turning: curve::is_turning(snap.net, v),
         light_lane: light.lane,
         distance_to_light: light.distance,
@@ -91,6 +99,7 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
 impl Perception {
     pub fn apply(&self, v: &mut Vehicle) {
         v.distance_to_front = self.distance_to_front;
+        v.front_speed = self.front_speed;
         v.is_turning = self.is_turning;
         v.light_lane = self.light_lane;
         v.distance_to_light = self.distance_to_light;

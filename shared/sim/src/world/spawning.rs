@@ -206,6 +206,7 @@ impl World {
             }),
             is_turning: false,
             distance_to_front: f64::INFINITY,
+            front_speed: 0.0,
             light_lane: None,
             distance_to_light: f64::INFINITY,
             passability: Default::default(),

@@ -1,0 +1,86 @@
+//! Driver models: how a vehicle turns the stop points it perceives into an
+//! acceleration. Chosen per vehicle type, with a default per run.
+
+use serde::{Deserialize, Serialize};
+
+/// The car-following model of a vehicle type.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, Default)]
+#[serde(rename_all = "snake_case", tag = "model")]
+pub enum DriverModel {
+    /// The AWSIM reference's speed modes (NORMAL, SLOW, STOP, SUDDEN_STOP,
+    /// ABSOLUTE_STOP) with their fixed rates: what an AWSIM user expects.
+    #[default]
+    Awsim,
+    /// The Intelligent Driver Model (Treiber, Hennecke and Helbing, 2000):
+    /// smooth following with a time headway, which discharges a queue at a
+    /// green light at the rate real drivers do.
+    Realistic(IdmParams),
+}
+
+impl DriverModel {
+    /// `awsim`, or `realistic` with the IDM's defaults.
+    pub fn by_name(name: &str) -> Option<DriverModel> {
+        match name {
+            "awsim" => Some(DriverModel::Awsim),
+            "realistic" => Some(DriverModel::Realistic(IdmParams::default())),
+            _ => None,
+        }
+    }
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            DriverModel::Awsim => "awsim",
+            DriverModel::Realistic(_) => "realistic",
+        }
+    }
+}
+
+/// The IDM's parameters; SUMO's vType attributes of the same meaning are
+/// noted beside each.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct IdmParams {
+    /// Maximum acceleration, m/s² (`accel`).
+    pub accel: f64,
+    /// Comfortable deceleration, m/s² (`decel`).
+    pub decel: f64,
+    /// Bumper-to-bumper gap kept at standstill, m (`minGap`).
+    pub min_gap: f64,
+    /// Desired time headway, s (`tau`).
+    pub headway: f64,
+    /// The vehicle's own top speed, m/s (`maxSpeed`); lanes may set less.
+    pub max_speed: f64,
+}
+
+impl Default for IdmParams {
+    /// SUMO's passenger-car defaults for accel, decel, minGap and tau.
+    fn default() -> Self {
+        IdmParams {
+            accel: 2.6,
+            decel: 4.5,
+            min_gap: 2.5,
+            headway: 1.0,
+            max_speed: 55.55,
+        }
+    }
+}
+
+impl IdmParams {
+    /// Names the first parameter that is not a positive finite number.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, value) in [
+            ("accel", self.accel),
+            ("decel", self.decel),
+            ("min_gap", self.min_gap),
+            ("headway", self.headway),
+            ("max_speed", self.max_speed),
+        ] {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!(
+                    "driver model: {name} must be a positive number, got {value}"
+                ));
+            }
+        }
+        Ok(())
+    }
+}
