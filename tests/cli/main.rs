@@ -276,11 +276,68 @@ fn bad_numbers_on_the_command_line_are_rejected() {
     );
     sim(&["--duration", "10", "--dt", "0"], "--dt must be in (0, 1]");
     sim(
+        &["--duration", "10", "--jam-timeout", "-1"],
+        "--jam-timeout must be 0 (never) or a positive number",
+    );
+    sim(
         &["--duration", "10", "--fixed-speed-limit", "-1"],
         "fixedSpeedLimit must be a positive number",
     );
     expect_usage_error(
         &["gen-grid", "--size", "0"],
         &["--size must be between 1 and 200"],
+    );
+}
+
+fn saturation(model: &str) -> Value {
+    let out = trafficmesh(&["bench", "saturation", "--model", model, "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("stdout is one JSON object")
+}
+
+/// The realistic model discharges a queue at a green light near the 1,900
+/// vehicles per hour per lane of the Highway Capacity Manual; the AWSIM
+/// reference's rules at well under that. Loose bounds: a regression in either
+/// model cannot pass unnoticed.
+#[test]
+fn bench_saturation_gives_each_models_discharge_rate() {
+    let realistic = saturation("realistic");
+    let flow = realistic["saturation_flow_veh_per_hour_per_lane"]
+        .as_f64()
+        .unwrap();
+    assert!((1500.0..=2200.0).contains(&flow), "realistic: {realistic}");
+    let awsim = saturation("awsim");
+    let flow = awsim["saturation_flow_veh_per_hour_per_lane"]
+        .as_f64()
+        .unwrap();
+    assert!((600.0..=1200.0).contains(&flow), "awsim: {awsim}");
+    assert_eq!(awsim["queued"], 20);
+}
+
+/// The figures a traffic engineer reads are in the summary.
+#[test]
+fn sim_json_reports_insertion_arrival_waiting_and_jams() {
+    let dir = tempfile::tempdir().unwrap();
+    let map = grid(dir.path(), 3);
+    let v = sim_json(&map, &["--duration", "120", "--max-vehicles", "30"]);
+    for field in [
+        "inserted",
+        "arrived",
+        "insertion_backlog",
+        "max_wait_s",
+        "stuck_vehicles",
+        "jam_resolutions",
+    ] {
+        assert!(v[field].is_number(), "{field} missing: {v}");
+    }
+    assert_eq!(v["inserted"], v["spawned"]);
+    assert!(v["arrived"].as_u64().unwrap() <= v["despawned"].as_u64().unwrap());
+    assert_eq!(
+        v["driver_model"], "awsim",
+        "a native map runs the reference's model"
     );
 }

@@ -32,7 +32,7 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
             t.stops.to_string(),
             format!("{:.2}", t.time_stopped),
             t.reason.as_str().to_string(),
-            format!("{:.2}", t.spawn_time - t.depart),
+            format!("{:.2}", (t.spawn_time - t.depart).max(0.0)),
             format!("{:.2}", t.time_loss),
         ])?;
     }
@@ -49,7 +49,7 @@ pub fn write_trips(path: &Path, finished: &[TripRecord], world: &World) -> Resul
             v.trip.stops.to_string(),
             format!("{:.2}", v.trip.time_stopped),
             "running".to_string(),
-            format!("{:.2}", v.trip.spawn_time - v.trip.depart),
+            format!("{:.2}", (v.trip.spawn_time - v.trip.depart).max(0.0)),
             format!("{:.2}", v.trip.time_loss),
         ])?;
     }

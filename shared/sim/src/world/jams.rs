@@ -26,6 +26,7 @@ pub struct WaitStats {
 impl World {
     /// Every JAM_CHECK_INTERVAL ticks: notes the longest wait and flags each
     /// vehicle that has stood for the jam timeout to leave at the next tick.
+    /// A vehicle held by a red light is waiting its turn, not jammed.
     pub(super) fn resolve_jams(&mut self) {
         if !self.ticks.is_multiple_of(JAM_CHECK_INTERVAL) {
             return;
@@ -34,7 +35,7 @@ impl World {
         let mut jammed = false;
         for v in &mut self.vehicles {
             self.wait_stats.max_wait = self.wait_stats.max_wait.max(v.trip.wait);
-            if timeout > 0.0 && v.trip.wait >= timeout && !v.should_despawn {
+            if timeout > 0.0 && v.trip.wait >= timeout && !at_red(v) && !v.should_despawn {
                 v.should_despawn = true;
                 v.despawn_reason = Some(DespawnReason::Jammed);
                 self.wait_stats.jam_resolutions += 1;
@@ -67,7 +68,10 @@ impl World {
     }
 }
 
+fn at_red(v: &Vehicle) -> bool {
+    v.light_lane.is_some() && v.passability == LightColor::Red
+}
+
 fn is_stuck(v: &Vehicle) -> bool {
-    let at_red = v.light_lane.is_some() && v.passability == LightColor::Red;
-    v.trip.wait >= STUCK_AFTER && !at_red
+    v.trip.wait >= STUCK_AFTER && !at_red(v)
 }

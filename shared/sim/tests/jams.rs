@@ -1,0 +1,91 @@
+//! The jam timeout and the waiting figures: a vehicle that stands for the
+//! timeout (away from a red light) is taken off the road and counted; one held
+//! by a red light is not; a vehicle standing a minute counts as stuck.
+
+mod support;
+
+use serde_json::json;
+use support::*;
+use trafficmesh_model::{LightColor, MapFile};
+use trafficmesh_sim::crosswalk::OccupantType;
+use trafficmesh_sim::lights::LightControl;
+use trafficmesh_sim::{DespawnReason, SimEvent, WorldConfig};
+
+/// An eastbound road with a zebra crossing at x = 150 that a walker who never
+/// leaves can block for good.
+fn road_with_crossing() -> MapFile {
+    let mut junction = lane("junction", &[[400.0, 0.0], [420.0, 0.0]], &[]);
+    junction["intersection"] = json!(true);
+    map(
+        vec![
+            lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]),
+            junction,
+        ],
+        json!({
+            "crosswalks": [{
+                "name": "Zebra",
+                "area": { "shape": "box", "center": [150.0, 0.0], "half_extents": [2.0, 6.0] },
+                "stop_points": [{ "position": [145.0, 0.0] }]
+            }]
+        }),
+    )
+}
+
+fn blocked_for_good(jam_timeout: f64) -> (trafficmesh_sim::World, u64) {
+    let config = WorldConfig {
+        jam_timeout,
+        ..WorldConfig::default()
+    };
+    let mut w = world(&road_with_crossing(), config);
+    let id = w.place_vehicle("Taxi", "east", 60.0, 10.0).unwrap();
+    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+        .unwrap();
+    (w, id)
+}
+
+#[test]
+fn a_vehicle_standing_for_the_jam_timeout_is_taken_off_the_road_and_counted() {
+    let (mut w, id) = blocked_for_good(120.0);
+    run_for(&mut w, 100.0);
+    assert!(w.vehicle(id).is_some(), "gone before its timeout");
+    assert_eq!(w.stuck_vehicles(), 1, "standing over a minute: stuck");
+    run_until(&mut w, 60.0, |w| w.vehicle(id).is_none());
+    assert!(w.vehicle(id).is_none(), "still on the road after 160 s");
+    let events: Vec<SimEvent> = w.drain_events().collect();
+    assert!(
+        events.iter().any(|e| matches!(e, SimEvent::Despawned(t) if t.id == id && t.reason == DespawnReason::Jammed)),
+        "no jammed despawn among {events:?}"
+    );
+    let stats = w.wait_stats();
+    assert_eq!(stats.jam_resolutions, 1);
+    assert!(
+        (120.0..125.0).contains(&stats.max_wait),
+        "max wait {} s",
+        stats.max_wait
+    );
+}
+
+#[test]
+fn with_the_jam_timeout_at_zero_nobody_is_taken_off() {
+    let (mut w, id) = blocked_for_good(0.0);
+    run_for(&mut w, 400.0);
+    assert!(w.vehicle(id).is_some());
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+    assert!(w.wait_stats().max_wait > 300.0);
+}
+
+#[test]
+fn a_vehicle_held_by_a_red_light_is_neither_stuck_nor_jammed() {
+    let config = WorldConfig {
+        jam_timeout: 120.0,
+        ..WorldConfig::default()
+    };
+    let mut w = world(&signalised_road(), config);
+    w.set_light("L", LightControl::Forced(LightColor::Red))
+        .unwrap();
+    let id = w.place_vehicle("Taxi", "approach", 100.0, 10.0).unwrap();
+    run_for(&mut w, 300.0);
+    assert!(vehicle(&w, id).speed < 0.1, "it waits at the red light");
+    assert_eq!(w.stuck_vehicles(), 0);
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+}
