@@ -1,6 +1,7 @@
-//! The jam timeout and the waiting figures: a vehicle that stands for the
-//! timeout (away from a red light) is taken off the road and counted; one held
-//! by a red light is not; a vehicle standing a minute counts as stuck.
+//! The jam timeout and the waiting figures: a queue head that stands for the
+//! timeout (away from a red light) is moved to the next lane of its route
+//! where it fits, or taken off the road, and counted; one held by a red light
+//! is not; a vehicle standing a minute counts as stuck.
 
 mod support;
 
@@ -12,15 +13,21 @@ use trafficmesh_sim::lights::LightControl;
 use trafficmesh_sim::{DespawnReason, SimEvent, WorldConfig};
 
 /// An eastbound road with a zebra crossing at x = 150 that a walker who never
-/// leaves can block for good.
-fn road_with_crossing() -> MapFile {
-    let mut junction = lane("junction", &[[400.0, 0.0], [420.0, 0.0]], &[]);
+/// leaves can block for good, ending in a junction lane, with or without an
+/// exit lane after it.
+fn road_with_crossing(with_exit: bool) -> MapFile {
+    let next: &[&str] = if with_exit { &["exit"] } else { &[] };
+    let mut junction = lane("junction", &[[400.0, 0.0], [420.0, 0.0]], next);
     junction["intersection"] = json!(true);
+    let mut lanes = vec![
+        lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]),
+        junction,
+    ];
+    if with_exit {
+        lanes.push(lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]));
+    }
     map(
-        vec![
-            lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]),
-            junction,
-        ],
+        lanes,
         json!({
             "crosswalks": [{
                 "name": "Zebra",
@@ -36,7 +43,7 @@ fn blocked_for_good(jam_timeout: f64) -> (trafficmesh_sim::World, u64) {
         jam_timeout,
         ..WorldConfig::default()
     };
-    let mut w = world(&road_with_crossing(), config);
+    let mut w = world(&road_with_crossing(false), config);
     let id = w.place_vehicle("Taxi", "east", 60.0, 10.0).unwrap();
     w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
         .unwrap();
@@ -58,11 +65,53 @@ fn a_vehicle_standing_for_the_jam_timeout_is_taken_off_the_road_and_counted() {
     );
     let stats = w.wait_stats();
     assert_eq!(stats.jam_resolutions, 1);
+    assert_eq!(
+        stats.jam_removals, 1,
+        "no ordinary lane ahead without a route"
+    );
     assert!(
         (120.0..125.0).contains(&stats.max_wait),
         "max wait {} s",
         stats.max_wait
     );
+}
+
+#[test]
+fn a_jammed_vehicle_with_a_route_is_moved_to_the_next_lane_of_its_route_where_it_fits() {
+    let config = WorldConfig {
+        jam_timeout: 120.0,
+        ..WorldConfig::default()
+    };
+    let mut w = world(&road_with_crossing(true), config);
+    let id = w
+        .place_vehicle_on_route("Taxi", &["east", "junction", "exit"], 60.0, 10.0)
+        .unwrap();
+    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+        .unwrap();
+    let exit = w.network().lane_id("exit").unwrap();
+    run_until(&mut w, 119.0, |w| vehicle(w, id).path[0] == exit);
+    assert!(
+        vehicle(&w, vehicle_lane_is(&w, id, "east")).speed < 0.1,
+        "it waits at the zebra until its timeout"
+    );
+    run_until(&mut w, 20.0, |w| vehicle(w, id).path[0] == exit);
+    let v = vehicle(&w, id);
+    assert_eq!(
+        v.path[0], exit,
+        "moved to the start of the route's next lane"
+    );
+    assert!(v.pose.x >= 420.0, "its body is on the exit: x {}", v.pose.x);
+    assert_eq!(w.wait_stats().jam_resolutions, 1);
+    assert_eq!(w.wait_stats().jam_removals, 0);
+    run_for(&mut w, 10.0);
+    assert!(vehicle(&w, id).speed > 5.0, "it drives on from there");
+}
+
+/// The vehicle's id, after checking that it is on `lane`.
+fn vehicle_lane_is(w: &trafficmesh_sim::World, id: u64, lane: &str) -> u64 {
+    let on = vehicle(w, id).path[0];
+    assert_eq!(w.network().lane(on).name, lane);
+    id
 }
 
 #[test]

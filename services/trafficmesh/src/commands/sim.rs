@@ -52,8 +52,9 @@ pub struct SimArgs {
     /// Print one JSON object with the run's figures on stdout.
     #[arg(long)]
     json: bool,
-    /// Seconds a vehicle may stand still before it is taken off the road as
-    /// jammed and counted (SUMO's time-to-teleport); 0 never does.
+    /// Seconds a queue head may stand still (not at a red light) before it is
+    /// moved to the next lane of its way with room, or taken off the road, and
+    /// counted (SUMO's time-to-teleport); 0 never does.
     #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
     jam_timeout: f64,
     /// Driver model of vehicle types that do not choose their own: `awsim` (the
@@ -102,8 +103,11 @@ struct Summary {
     max_wait_s: f64,
     /// Vehicles standing for 60 s or more at the end, not at a red light.
     stuck_vehicles: usize,
-    /// Vehicles taken off the road by `--jam-timeout`.
+    /// Jammed vehicles moved on (or, with no room ahead, taken off the road)
+    /// by `--jam-timeout`.
     jam_resolutions: u64,
+    /// Of those, the ones taken off the road.
+    jam_removals: u64,
     branch_decisions: u64,
     trajectory_hash: String,
 }
@@ -244,6 +248,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         max_wait_s: waits.max_wait,
         stuck_vehicles: world.stuck_vehicles(),
         jam_resolutions: waits.jam_resolutions,
+        jam_removals: waits.jam_removals,
         branch_decisions: world.branch_stats().total(),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
     };

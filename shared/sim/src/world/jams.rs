@@ -1,12 +1,17 @@
 //! Gridlock's last resort and the figures a traffic engineer reads about
-//! waiting: a vehicle that has stood still for the jam timeout (SUMO's
-//! `time-to-teleport`) is taken off the road and counted.
+//! waiting. As SUMO does with `time-to-teleport`: a vehicle at the head of its
+//! lane that has stood still for the jam timeout is moved to the start of the
+//! next lane of its way where it fits, or, where none does, taken off the
+//! road; either way it is counted.
 
+use glam::DVec2;
 use trafficmesh_model::LightColor;
 
 use super::World;
+use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
-use crate::vehicle::Vehicle;
+use crate::network::{LaneId, LaneNetwork};
+use crate::vehicle::{Pose, Vehicle};
 
 /// Ticks between looks for jammed vehicles: a timeout is minutes long, and
 /// the look reads every vehicle.
@@ -17,35 +22,57 @@ pub const STUCK_AFTER: f64 = 60.0;
 /// What the world has seen of waiting, for `sim --json` and the stepper status.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WaitStats {
-    /// Vehicles taken off the road by the jam timeout.
+    /// Jammed vehicles moved on or taken off the road by the jam timeout.
     pub jam_resolutions: u64,
+    /// Of those, the ones taken off the road (no lane ahead had room).
+    pub jam_removals: u64,
     /// The longest standstill any vehicle has had so far, seconds.
     pub max_wait: f64,
 }
 
 impl World {
-    /// Every JAM_CHECK_INTERVAL ticks: notes the longest wait and flags each
-    /// vehicle that has stood for the jam timeout to leave at the next tick.
-    /// A vehicle held by a red light is waiting its turn, not jammed.
-    pub(super) fn resolve_jams(&mut self) {
+    /// Every JAM_CHECK_INTERVAL ticks, before spawning: notes the longest
+    /// wait and resolves each jammed vehicle, in id order. Returns where it
+    /// put vehicles (lane start, body length).
+    pub(super) fn resolve_jams(&mut self) -> Vec<(DVec2, f64)> {
+        let mut placed = Vec::new();
         if !self.ticks.is_multiple_of(JAM_CHECK_INTERVAL) {
-            return;
+            return placed;
         }
         let timeout = self.config.jam_timeout;
-        let mut jammed = false;
-        for v in &mut self.vehicles {
+        let mut jammed: Vec<(u64, usize)> = Vec::new();
+        for (i, v) in self.vehicles.iter().enumerate() {
             self.wait_stats.max_wait = self.wait_stats.max_wait.max(v.trip.wait);
-            if timeout > 0.0 && v.trip.wait >= timeout && !at_red(v) && !v.should_despawn {
-                v.should_despawn = true;
-                v.despawn_reason = Some(DespawnReason::Jammed);
-                self.wait_stats.jam_resolutions += 1;
-                jammed = true;
+            if timeout > 0.0 && v.trip.wait >= timeout && is_jammed_head(&self.net, v) {
+                jammed.push((v.id, i));
             }
         }
-        if jammed {
-            // A vehicle leaving is not followed, and the list will shift.
-            self.drop_prefollowed();
+        if jammed.is_empty() {
+            return placed;
         }
+        // A vehicle that moves or leaves is not where the lanes were followed.
+        self.drop_prefollowed();
+        jammed.sort_unstable();
+        for (_, i) in jammed {
+            self.wait_stats.jam_resolutions += 1;
+            let kind = self.vehicles[i].kind;
+            let target = lanes_ahead(&self.net, &self.vehicles[i])
+                .find(|&(lane, _)| self.is_spawnable(kind, lane, &placed));
+            match target {
+                Some((lane, route_index)) => {
+                    let length = self.net.kinds[kind].length;
+                    placed.push((self.net.lane(lane).line.point(0), length));
+                    relocate(&self.net, &mut self.vehicles[i], lane, route_index);
+                }
+                None => {
+                    let v = &mut self.vehicles[i];
+                    v.should_despawn = true;
+                    v.despawn_reason = Some(DespawnReason::Jammed);
+                    self.wait_stats.jam_removals += 1;
+                }
+            }
+        }
+        placed
     }
 
     pub fn wait_stats(&self) -> WaitStats {
@@ -74,4 +101,71 @@ fn at_red(v: &Vehicle) -> bool {
 
 fn is_stuck(v: &Vehicle) -> bool {
     v.trip.wait >= STUCK_AFTER && !at_red(v)
+}
+
+/// The head of a queue (nothing ahead on its own lane: what holds it lies at
+/// or beyond the lane's end, or it stands inside a junction), not held by a
+/// red light (a light held red on purpose, or stale, is a wait, not a jam),
+/// and not leaving anyway.
+fn is_jammed_head(net: &LaneNetwork, v: &Vehicle) -> bool {
+    let lane = net.lane(v.path[0]);
+    let head = lane.intersection || v.distance_to_front >= lane.length() - v.s - 0.01;
+    head && !at_red(v) && !v.should_despawn
+}
+
+/// The lanes a jammed vehicle may be moved to, nearest first: the ordinary
+/// (non-junction) lanes of its route after the one it is on, or, without a
+/// route, of its path. Each with its index in the route.
+fn lanes_ahead<'a>(
+    net: &'a LaneNetwork,
+    v: &'a Vehicle,
+) -> Box<dyn Iterator<Item = (LaneId, Option<usize>)> + 'a> {
+    let ordinary = move |lane: LaneId| !net.lane(lane).intersection;
+    match &v.route {
+        Some(route) => {
+            let here = route
+                .lanes
+                .iter()
+                .position(|&l| l == v.path[0])
+                .unwrap_or(0);
+            Box::new(
+                route.lanes[here + 1..]
+                    .iter()
+                    .enumerate()
+                    .filter(move |(_, l)| ordinary(**l))
+                    .map(move |(k, &l)| (l, Some(here + 1 + k))),
+            )
+        }
+        None => Box::new(
+            v.path[1..]
+                .iter()
+                .copied()
+                .filter(move |&l| ordinary(l))
+                .map(|l| (l, None)),
+        ),
+    }
+}
+
+/// Puts the vehicle at the start of `lane`, rear bumper at 0, standing, with
+/// its path, route progress and cached facts begun again from there.
+fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, route_index: Option<usize>) {
+    v.path.clear();
+    v.path.push(lane);
+    v.path_length = net.lane(lane).length();
+    v.s = v.length.min(v.path_length);
+    v.speed = 0.0;
+    v.acceleration = 0.0;
+    v.prev_lane = None;
+    v.forced_through = None;
+    v.yield_phase = Default::default();
+    v.dominating = None;
+    if let (Some(route), Some(k)) = (&mut v.route, route_index) {
+        route.index = k;
+    }
+    v.first_junction_lane = first_junction_lane(net, &v.path);
+    crate::lane_change::refresh_first_lanes(net, v);
+    v.pose_at = (LaneId::MAX, f64::NAN);
+    v.pose = Pose::default();
+    crate::control::update_pose(net, v);
+    v.trip.wait = 0.0;
 }

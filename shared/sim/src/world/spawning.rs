@@ -29,14 +29,16 @@ pub enum SpawnRejection {
 const CLEARANCE: f64 = 1.0;
 
 impl World {
-    pub(super) fn spawn_phase(&mut self) {
+    /// `placed`: bodies put at lane starts earlier this tick (jammed vehicles
+    /// moved on), which the spawns keep clear of.
+    pub(super) fn spawn_phase(&mut self, placed: Vec<(DVec2, f64)>) {
         let requests = self.spawner.plan(
             &self.net,
             self.time,
             self.ego.as_ref(),
             self.config.spawn_distance_to_ego,
         );
-        let mut spawned_here = Vec::new();
+        let mut spawned_here = placed;
         for request in &requests {
             let outcome = match self.admit_spawn(
                 request.kind,

@@ -68,7 +68,10 @@ impl World {
         self.phase_times.begin();
         self.lights.update(self.time);
         self.phase_times.lap(Phase::Lights);
-        self.spawn_phase();
+        // On the same lane index as spawning: a jammed vehicle is moved to
+        // where a new one could spawn, and the spawns then keep clear of it.
+        let placed = self.resolve_jams();
+        self.spawn_phase(placed);
         self.phase_times.lap(Phase::Spawn);
         let leaving = self.follow_lanes();
         self.phase_times.lap(Phase::FollowLanes);
@@ -111,7 +114,6 @@ impl World {
         }
         self.trajectory
             .add_tick_digest(self.vehicles.len(), digest_sum);
-        self.resolve_jams();
         self.phase_times.lap(Phase::Despawn);
         if regroup {
             self.regroup_by_lane();
@@ -304,7 +306,7 @@ mod tests {
             fused_ticks += usize::from(world.prefollowed.is_some());
             // Vehicles spawned after the motion pass are followed on their own.
             let before = world.vehicles.len();
-            world.spawn_phase();
+            world.spawn_phase(Vec::new());
             spawned += world.vehicles.len() - before;
             for _ in 0..2 {
                 world.follow_lanes();
