@@ -458,8 +458,10 @@ fn a_sumo_route_file_runs_its_vehicles_along_their_routes_and_out() {
         "nobody chose a branch: {summary}"
     );
     let trips = std::fs::read_to_string(dir.path().join("trips.csv")).unwrap();
-    let truck = trips.lines().filter(|l| l.contains("Truck")).count();
-    assert_eq!(truck, 1, "the 7.5 m vType became the truck:\n{trips}");
+    let truck = trips.lines().filter(|l| l.contains(",truck,")).count();
+    assert_eq!(truck, 1, "the vType 'truck' is a kind of its own:\n{trips}");
+    let car = trips.lines().filter(|l| l.contains(",car,")).count();
+    assert_eq!(car, 10, "the flow's vType 'car':\n{trips}");
     assert_eq!(
         trips.lines().filter(|l| l.contains(",route_end,")).count(),
         11,

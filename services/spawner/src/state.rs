@@ -74,6 +74,10 @@ impl SpawnerState {
                         .collect()
                 }),
                 leave_at_route_end: r.route.as_ref().is_some_and(|route| route.leave_at_end),
+                kind_def: Some(&self.net.kinds[r.kind])
+                    .filter(|k| trafficmesh_model::builtin_kind(&k.name).is_none())
+                    .cloned(),
+                depart: r.route.as_ref().and_then(|route| route.depart),
             })
             .collect();
         (

@@ -125,7 +125,11 @@ fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
                     reason: format!("unknown lane '{}'", order.lane),
                 };
             };
-            let Some(kind) = world.kind_index(&order.kind) else {
+            let known = match order.kind_def {
+                Some(def) if def.name == order.kind => Some(world.add_vehicle_kind(def)),
+                _ => world.kind_index(&order.kind),
+            };
+            let Some(kind) = known else {
                 return SpawnVerdict::Invalid {
                     reason: format!("unknown vehicle kind '{}'", order.kind),
                 };
@@ -147,7 +151,7 @@ fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
                     Some(trafficmesh_sim::spawn::Route {
                         lanes: lanes.into(),
                         leave_at_end: order.leave_at_route_end,
-                        depart: None,
+                        depart: order.depart,
                     })
                 }
             };

@@ -307,6 +307,7 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
     let attempts = (spawn_lanes.len() / 40).max(1) as u32;
     MapFile {
         conflicts_outside_junctions: false,
+        vehicle_kinds: Vec::new(),
         format: MAP_FORMAT.to_string(),
         name: format!("grid {n}x{n}, {} m blocks", o.block),
         lanes,

@@ -77,6 +77,7 @@ pub fn assemble(
             zebra_configs: Vec::new(),
             traffic_simulators,
             conflicts_outside_junctions,
+            vehicle_kinds: Vec::new(),
         },
         warnings,
     }

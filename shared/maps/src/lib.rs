@@ -11,6 +11,7 @@ pub mod import;
 mod lanelet2;
 mod sumo;
 pub mod sumo_routes;
+pub mod sumocfg;
 
 pub use args::MapArgs;
 pub use files::{
@@ -19,6 +20,7 @@ pub use files::{
 };
 pub use grid::{GridOptions, grid_map, grid_world};
 pub use import::{ImportError, Imported};
+pub use sumocfg::{Scenario, SumoConfig, load_scenario, read_sumocfg};
 
 /// Loads a map (any format), with a SUMO route file's demand in place of the
 /// map's own simulators when one is given, and compiles it; the route
@@ -33,6 +35,7 @@ pub fn load_network_with_routes(
     let mut file = load_map(map)?;
     let demand = load_routes(routes, &file)?;
     file.traffic_simulators = vec![demand.simulator];
+    file.vehicle_kinds.extend(demand.kinds);
     let net =
         trafficmesh_sim::LaneNetwork::build(&file).map_err(|problems| FileError::Invalid {
             path: routes.to_owned(),

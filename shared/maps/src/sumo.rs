@@ -33,12 +33,22 @@ struct Connection {
     dir: String,
 }
 
-struct Phase {
+pub struct Phase {
     duration: f64,
     state: Vec<char>,
 }
 
 pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
+    import_with_programs(name, text, Programs::new())
+}
+
+/// As [`import`], with `tlLogic` programs read from additional files that
+/// replace the network's of the same id (as SUMO runs the last one loaded).
+pub fn import_with_programs(
+    name: &str,
+    text: &str,
+    replacements: Programs,
+) -> Result<Imported, ImportError> {
     let doc = parse_xml(text, "net", "SUMO network")?;
     let net = doc.root_element();
     let mut warnings = Vec::new();
@@ -149,7 +159,8 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     }
     stretch_degenerate(&mut lanes, &index, &links);
 
-    let programs = tl_programs(&doc, net, &mut warnings)?;
+    let mut programs = tl_programs(&doc, net, &mut warnings)?;
+    programs.extend(replacements);
     let light_groups = lights(&programs, &connections, &index, &mut lanes, &mut warnings)?;
     right_of_way(&doc, net, &index, &programs, &connections, &mut lanes)?;
     let crosswalks = crosswalks(&doc, &crossings, &lanes, &mut warnings)?;
@@ -376,10 +387,11 @@ fn connections(doc: &Document, net: Node) -> Result<Vec<Connection>, ImportError
 /// One light group per signal link (`<tl>_<linkIndex>`), its program read from
 /// the link's column of the phase states: its green, yellow and red times per
 /// cycle and where its green starts.
-type Programs = BTreeMap<String, (f64, Vec<Phase>)>;
+pub type Programs = BTreeMap<String, (f64, Vec<Phase>)>;
 
-/// Every `tlLogic`: its offset and phases (the first program of an id).
-fn tl_programs(
+/// Every `tlLogic` under `net` (a network or an additional file's root): its
+/// offset and phases (the first program of an id).
+pub fn tl_programs(
     doc: &Document,
     net: Node,
     warnings: &mut Vec<String>,

@@ -1,13 +1,16 @@
 //! SUMO route files (`.rou.xml`) as a demand: `vehicle` with `depart` and a
 //! `route` (by id or inline), `flow` with `vehsPerHour`, `period`,
-//! `probability` or `number` between `begin` and `end`, and `vType` lengths
-//! (each vehicle takes the catalogue kind nearest in length). Edge routes
-//! become lane routes through the imported network's connections.
+//! `probability` or `number` between `begin` and `end`. Each `vType` becomes a
+//! vehicle kind of its own (length, width, and accel, decel, minGap, tau and
+//! maxSpeed for the realistic driver model); a `vTypeDistribution` is drawn
+//! from per vehicle with the run's seed. Edge routes become lane routes
+//! through the imported network's connections.
 
 use std::collections::HashMap;
 
 use roxmltree::Node;
 use trafficmesh_model::map::{DepartureDef, MapFile, SimulatorDef};
+use trafficmesh_model::{IdmParams, VehicleKind};
 
 use crate::import::{ImportError, attr, attr_f64, parse_xml};
 
@@ -19,8 +22,13 @@ const DEFAULT_FLOW_END: f64 = 86_400.0;
 /// The demand and what could not be carried over.
 pub struct Demand {
     pub simulator: SimulatorDef,
+    /// The vTypes the departures use, as vehicle kinds of the map's own.
+    pub kinds: Vec<VehicleKind>,
     pub warnings: Vec<String>,
 }
+
+/// SUMO's defaults for a vType's size.
+const DEFAULT_WIDTH: f64 = 1.8;
 
 struct Network<'m> {
     /// Normal lanes of each edge, by lane index.
@@ -179,160 +187,383 @@ fn optional(doc: &roxmltree::Document, n: Node, name: &str) -> Result<Option<f64
         .transpose()
 }
 
+/// A vehicle type by id: a kind, or a distribution over kinds.
+enum VehicleType {
+    Kind(VehicleKind),
+    /// (vType id, probability) of each member.
+    Distribution(Vec<(String, f64)>),
+}
+
+/// Builds one demand from any number of route and additional files, in
+/// order (a type must come before the vehicles that use it, as in SUMO).
+pub struct DemandBuilder<'m> {
+    net: Network<'m>,
+    seed: u64,
+    /// Departures before `begin` are left out; the rest start counting from it.
+    begin: f64,
+    end: f64,
+    types: HashMap<String, VehicleType>,
+    used: Vec<String>,
+    departures: Vec<DepartureDef>,
+    warnings: Vec<String>,
+    /// Elements read but not simulated, by tag.
+    not_simulated: std::collections::BTreeMap<String, usize>,
+    unrouted: usize,
+    unconnected: Vec<String>,
+    /// Vehicles whose vType no file read defines, by type.
+    undefined_types: std::collections::BTreeMap<String, usize>,
+}
+
+impl<'m> DemandBuilder<'m> {
+    /// `seed` draws vTypes from distributions; departures outside
+    /// [`begin`, `end`) are left out.
+    pub fn new(map: &'m MapFile, seed: u64, begin: f64, end: f64) -> Self {
+        DemandBuilder {
+            net: Network::new(map),
+            seed,
+            begin,
+            end,
+            types: HashMap::new(),
+            used: Vec::new(),
+            departures: Vec::new(),
+            warnings: Vec::new(),
+            not_simulated: Default::default(),
+            unrouted: 0,
+            unconnected: Vec::new(),
+            undefined_types: Default::default(),
+        }
+    }
+
+    /// The vTypes and vTypeDistributions of a route or additional file.
+    pub fn add_types(&mut self, doc: &roxmltree::Document) -> Result<(), ImportError> {
+        for n in doc.root_element().children().filter(|n| n.is_element()) {
+            match n.tag_name().name() {
+                "vType" => {
+                    let (id, kind) = vehicle_type(doc, n)?;
+                    self.types.insert(id, VehicleType::Kind(kind));
+                }
+                "vTypeDistribution" => {
+                    let id = attr(doc, n, "id")?.to_string();
+                    let mut members = Vec::new();
+                    for t in n.children().filter(|c| c.has_tag_name("vType")) {
+                        let (member, kind) = vehicle_type(doc, t)?;
+                        let p = optional(doc, t, "probability")?.unwrap_or(1.0);
+                        if p.is_nan() || p < 0.0 {
+                            return Err(ImportError::at(
+                                doc,
+                                t,
+                                &format!("attribute 'probability': {p} is negative"),
+                            ));
+                        }
+                        members.push((member.clone(), p));
+                        self.types.insert(member, VehicleType::Kind(kind));
+                    }
+                    if let Some(list) = n.attribute("vTypes") {
+                        for member in list.split_whitespace() {
+                            members.push((member.to_string(), 1.0));
+                        }
+                    }
+                    if members.iter().map(|m| m.1).sum::<f64>() <= 0.0 {
+                        return Err(ImportError::at(
+                            doc,
+                            n,
+                            &format!("vTypeDistribution '{id}' has no member with a probability"),
+                        ));
+                    }
+                    self.types.insert(id, VehicleType::Distribution(members));
+                }
+                _ => {}
+            }
+        }
+        Ok(())
+    }
+
+    /// Counts what an additional file holds that is not simulated (detectors,
+    /// bus stops, ...); tlLogic programs and vTypes are read elsewhere.
+    pub fn note_additionals(&mut self, doc: &roxmltree::Document) {
+        for n in doc.root_element().children().filter(|n| n.is_element()) {
+            let tag = n.tag_name().name();
+            if !matches!(tag, "vType" | "vTypeDistribution" | "tlLogic" | "route") {
+                *self.not_simulated.entry(tag.to_string()).or_default() += 1;
+            }
+        }
+    }
+
+    /// The vehicles, flows and routes of a route file.
+    pub fn add_routes(&mut self, doc: &roxmltree::Document) -> Result<(), ImportError> {
+        self.add_types(doc)?;
+        let root = doc.root_element();
+        let mut routes: HashMap<&str, Vec<&str>> = HashMap::new();
+        let mut lane_routes: HashMap<Vec<&str>, Option<Vec<String>>> = HashMap::new();
+        for n in root.children().filter(|n| n.is_element()) {
+            let tag = n.tag_name().name();
+            match tag {
+                "route" => {
+                    routes.insert(
+                        attr(doc, n, "id")?,
+                        attr(doc, n, "edges")?.split_whitespace().collect(),
+                    );
+                    continue;
+                }
+                "vehicle" | "flow" | "trip" => {}
+                "vType" | "vTypeDistribution" => continue,
+                other => {
+                    *self.not_simulated.entry(other.to_string()).or_default() += 1;
+                    continue;
+                }
+            }
+            let stops = n.children().filter(|c| c.has_tag_name("stop")).count();
+            if stops > 0 {
+                *self.not_simulated.entry("stop".into()).or_default() += stops;
+            }
+            let inline = n.children().find(|c| c.has_tag_name("route"));
+            let edges: Vec<&str> = match (n.attribute("route"), inline) {
+                (Some(id), _) => routes.get(id).cloned().ok_or_else(|| {
+                    ImportError::at(doc, n, &format!("route '{id}' is not defined before it"))
+                })?,
+                (None, Some(r)) => attr(doc, r, "edges")?.split_whitespace().collect(),
+                (None, None) => {
+                    self.unrouted += 1;
+                    continue;
+                }
+            };
+            let net = &self.net;
+            let lanes = lane_routes
+                .entry(edges.clone())
+                .or_insert_with(|| net.lane_route(&edges))
+                .clone();
+            let Some(route) = lanes else {
+                self.unconnected
+                    .push(n.attribute("id").unwrap_or("?").to_string());
+                continue;
+            };
+            let vehicle_type = match n.attribute("type") {
+                Some(t) if self.types.contains_key(t) => Some(t.to_string()),
+                Some(t) => {
+                    *self.undefined_types.entry(t.to_string()).or_default() += 1;
+                    None
+                }
+                None => None,
+            };
+            let id = attr(doc, n, "id")?;
+            let Some(times) = departure_times(doc, n, tag)? else {
+                self.warnings.push(format!(
+                    "{tag} '{id}': depart '{}' is not a time; left out",
+                    n.attribute("depart").unwrap_or("")
+                ));
+                continue;
+            };
+            for (k, time) in times.into_iter().enumerate() {
+                if time < self.begin || time >= self.end {
+                    continue;
+                }
+                let prefab = self.kind_for(vehicle_type.as_deref(), id, k);
+                self.departures.push(DepartureDef {
+                    time: time - self.begin,
+                    route: route.clone(),
+                    prefab,
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The kind of one vehicle (the `k`-th of element `id`): its type, drawn
+    /// from the distribution when the type is one; SUMO's default car without.
+    fn kind_for(&mut self, vehicle_type: Option<&str>, id: &str, k: usize) -> String {
+        let Some(mut name) = vehicle_type.map(str::to_string) else {
+            return nearest_builtin(DEFAULT_LENGTH);
+        };
+        while let Some(VehicleType::Distribution(members)) = self.types.get(&name) {
+            let total: f64 = members.iter().map(|m| m.1).sum();
+            let mut draw = SplitMix(mix(self.seed, id, k)).next_f64() * total;
+            let mut chosen = &members[members.len() - 1].0;
+            for (member, p) in members {
+                if draw < *p {
+                    chosen = member;
+                    break;
+                }
+                draw -= p;
+            }
+            name = chosen.clone();
+        }
+        if !self.used.contains(&name) {
+            self.used.push(name.clone());
+        }
+        name
+    }
+
+    pub fn finish(mut self) -> Result<Demand, ImportError> {
+        if self.net.shifts.get() > 0 {
+            self.warnings.push(format!(
+                "{} route(s) need a lane change on the way: those vehicles move across at the first gap and wait before the road's end for one",
+                self.net.shifts.get()
+            ));
+        }
+        if self.unrouted > 0 {
+            self.warnings.push(format!("{} trip(s) without a route left out (routing from/to is not done here; use SUMO's duarouter)", self.unrouted));
+        }
+        if !self.unconnected.is_empty() {
+            self.warnings.push(format!(
+                "{} vehicle(s) or flow(s) whose edges are not connected lane to lane in the network left out (e.g. {})",
+                self.unconnected.len(),
+                self.unconnected.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+            ));
+        }
+        if !self.undefined_types.is_empty() {
+            let list: Vec<String> = self
+                .undefined_types
+                .iter()
+                .map(|(t, n)| format!("{n} of '{t}'"))
+                .collect();
+            self.warnings.push(format!(
+                "vehicles of vTypes no file defines drive as SUMO's default car: {} (load the file that defines them: --sumocfg reads a scenario's additional files)",
+                list.join(", ")
+            ));
+        }
+        if !self.not_simulated.is_empty() {
+            let list: Vec<String> = self
+                .not_simulated
+                .iter()
+                .map(|(tag, n)| format!("{n} {tag}"))
+                .collect();
+            self.warnings
+                .push(format!("read but not simulated: {}", list.join(", ")));
+        }
+        if self.departures.is_empty() {
+            return Err(ImportError::plain(
+                "the route files have no vehicle or flow with a usable route".into(),
+            ));
+        }
+        self.departures.sort_by(|a, b| a.time.total_cmp(&b.time));
+        let kinds = self
+            .used
+            .iter()
+            .filter_map(|name| match self.types.get(name) {
+                Some(VehicleType::Kind(kind)) => Some(kind.clone()),
+                _ => None,
+            })
+            .collect();
+        Ok(Demand {
+            simulator: SimulatorDef::Demand {
+                departures: self.departures,
+            },
+            kinds,
+            warnings: self.warnings,
+        })
+    }
+}
+
+/// One route file's demand on `map` (its own vTypes; seed 0, no time window).
 pub fn import(text: &str, map: &MapFile) -> Result<Demand, ImportError> {
     let doc = parse_xml(text, "routes", "SUMO route file")?;
-    let root = doc.root_element();
-    let net = Network::new(map);
-    let mut warnings = Vec::new();
-    let kinds: Vec<(String, f64)> = trafficmesh_model::catalog::builtin_names()
-        .filter_map(trafficmesh_model::catalog::builtin_kind)
-        .map(|k| (k.name, k.length))
-        .collect();
-    let nearest = |length: f64| {
-        kinds
-            .iter()
-            .min_by(|a, b| (a.1 - length).abs().total_cmp(&(b.1 - length).abs()))
-            .map(|k| k.0.clone())
-            .expect("the catalogue is not empty")
+    let mut builder = DemandBuilder::new(map, 0, 0.0, f64::INFINITY);
+    builder.add_routes(&doc)?;
+    builder.finish()
+}
+
+/// A vType as a kind of its own size, with its car-following parameters.
+fn vehicle_type(doc: &roxmltree::Document, n: Node) -> Result<(String, VehicleKind), ImportError> {
+    let id = attr(doc, n, "id")?.to_string();
+    let bus = n.attribute("vClass") == Some("bus");
+    let length = optional(doc, n, "length")?.unwrap_or(if bus { 12.0 } else { DEFAULT_LENGTH });
+    let width = optional(doc, n, "width")?.unwrap_or(if bus { 2.5 } else { DEFAULT_WIDTH });
+    let defaults = IdmParams::default();
+    let idm = IdmParams {
+        accel: optional(doc, n, "accel")?.unwrap_or(defaults.accel),
+        decel: optional(doc, n, "decel")?.unwrap_or(defaults.decel),
+        min_gap: optional(doc, n, "minGap")?.unwrap_or(defaults.min_gap),
+        headway: optional(doc, n, "tau")?.unwrap_or(defaults.headway),
+        max_speed: optional(doc, n, "maxSpeed")?.unwrap_or(defaults.max_speed),
     };
-    let mut types: HashMap<&str, String> = HashMap::new();
-    let mut routes: HashMap<&str, Vec<&str>> = HashMap::new();
-    for n in root.children().filter(|n| n.is_element()) {
-        match n.tag_name().name() {
-            "vType" => {
-                let length = optional(&doc, n, "length")?.unwrap_or(DEFAULT_LENGTH);
-                types.insert(attr(&doc, n, "id")?, nearest(length));
-            }
-            "route" => {
-                routes.insert(
-                    attr(&doc, n, "id")?,
-                    attr(&doc, n, "edges")?.split_whitespace().collect(),
-                );
-            }
-            _ => {}
-        }
-    }
-    let default_kind = nearest(DEFAULT_LENGTH);
-    let mut lane_routes: HashMap<Vec<&str>, Option<Vec<String>>> = HashMap::new();
-    let mut departures = Vec::new();
-    let (mut unrouted, mut unconnected) = (0usize, Vec::new());
-    for n in root.children().filter(|n| n.is_element()) {
-        let tag = n.tag_name().name();
-        if !matches!(tag, "vehicle" | "flow" | "trip") {
-            continue;
-        }
-        let inline = n.children().find(|c| c.has_tag_name("route"));
-        let edges: Vec<&str> = match (n.attribute("route"), inline) {
-            (Some(id), _) => routes.get(id).cloned().ok_or_else(|| {
-                ImportError::at(&doc, n, &format!("route '{id}' is not defined before it"))
-            })?,
-            (None, Some(r)) => attr(&doc, r, "edges")?.split_whitespace().collect(),
-            (None, None) => {
-                unrouted += 1;
-                continue;
-            }
-        };
-        let lanes = lane_routes
-            .entry(edges.clone())
-            .or_insert_with(|| net.lane_route(&edges))
-            .clone();
-        let Some(route) = lanes else {
-            unconnected.push(n.attribute("id").unwrap_or("?").to_string());
-            continue;
-        };
-        let prefab = n
-            .attribute("type")
-            .map(|t| {
-                types
-                    .get(t)
-                    .cloned()
-                    .unwrap_or_else(|| default_kind.clone())
-            })
-            .unwrap_or_else(|| default_kind.clone());
-        let mut push = |time: f64| {
-            departures.push(DepartureDef {
-                time,
-                route: route.clone(),
-                prefab: prefab.clone(),
-            })
-        };
-        if tag == "flow" {
-            let begin = optional(&doc, n, "begin")?.unwrap_or(0.0);
-            let end = optional(&doc, n, "end")?.unwrap_or(DEFAULT_FLOW_END);
-            let number = optional(&doc, n, "number")?;
-            let period = match (
-                optional(&doc, n, "vehsPerHour")?,
-                optional(&doc, n, "period")?,
-                number,
-            ) {
-                (Some(vph), _, _) if vph > 0.0 => Some(3600.0 / vph),
-                (_, Some(p), _) if p > 0.0 => Some(p),
-                (_, _, Some(count)) if count >= 1.0 => Some((end - begin) / count),
-                _ => None,
-            };
-            if let Some(period) = period {
-                let limit = number.map_or(usize::MAX, |c| c as usize);
-                let mut t = begin;
-                let mut k = 0;
-                while t < end && k < limit {
-                    push(t);
-                    k += 1;
-                    t = begin + k as f64 * period;
-                }
-            } else if let Some(p) = optional(&doc, n, "probability")? {
-                let id = attr(&doc, n, "id")?;
-                let mut rng = SplitMix(id.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-                    (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
-                }));
-                let mut t = begin;
-                while t < end {
-                    if rng.next_f64() < p {
-                        push(t);
-                    }
-                    t += 1.0;
-                }
-            } else {
-                return Err(ImportError::at(
-                    &doc,
-                    n,
-                    "a flow needs vehsPerHour, period, probability or number",
-                ));
-            }
-        } else {
-            let depart = attr(&doc, n, "depart")?;
-            match depart.parse::<f64>() {
-                Ok(t) if t.is_finite() && t >= 0.0 => push(t),
-                _ => warnings.push(format!(
-                    "{tag} '{}': depart '{depart}' is not a time; left out",
-                    n.attribute("id").unwrap_or("?")
-                )),
-            }
-        }
-    }
-    if net.shifts.get() > 0 {
-        warnings.push(format!(
-            "{} route(s) need a lane change on the way: those vehicles move across at the first gap and wait before the road's end for one",
-            net.shifts.get()
+    if !(length > 0.0 && width > 0.0) {
+        return Err(ImportError::at(
+            doc,
+            n,
+            &format!("vType '{id}': length and width must be positive"),
         ));
     }
-    if unrouted > 0 {
-        warnings.push(format!("{unrouted} trip(s) without a route left out (routing from/to is not done here; use SUMO's duarouter)"));
+    idm.validate()
+        .map_err(|e| ImportError::at(doc, n, &format!("vType '{id}': {e}")))?;
+    let mut kind = VehicleKind::sized(&id, length, width);
+    kind.idm = Some(idm);
+    Ok((id, kind))
+}
+
+/// The departure times of a vehicle, trip or flow; None for a vehicle whose
+/// `depart` is not a time (SUMO's `triggered` and the like).
+fn departure_times(
+    doc: &roxmltree::Document,
+    n: Node,
+    tag: &str,
+) -> Result<Option<Vec<f64>>, ImportError> {
+    let mut times = Vec::new();
+    if tag != "flow" {
+        let depart = attr(doc, n, "depart")?;
+        return Ok(match depart.parse::<f64>() {
+            Ok(t) if t.is_finite() && t >= 0.0 => Some(vec![t]),
+            _ => None,
+        });
     }
-    if !unconnected.is_empty() {
-        warnings.push(format!(
-            "{} vehicle(s) or flow(s) whose edges are not connected lane to lane in the network left out (e.g. {})",
-            unconnected.len(),
-            unconnected.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+    let begin = optional(doc, n, "begin")?.unwrap_or(0.0);
+    let end = optional(doc, n, "end")?.unwrap_or(DEFAULT_FLOW_END);
+    let number = optional(doc, n, "number")?;
+    let period = match (
+        optional(doc, n, "vehsPerHour")?,
+        optional(doc, n, "period")?,
+        number,
+    ) {
+        (Some(vph), _, _) if vph > 0.0 => Some(3600.0 / vph),
+        (_, Some(p), _) if p > 0.0 => Some(p),
+        (_, _, Some(count)) if count >= 1.0 => Some((end - begin) / count),
+        _ => None,
+    };
+    if let Some(period) = period {
+        let limit = number.map_or(usize::MAX, |c| c as usize);
+        let mut t = begin;
+        let mut k = 0;
+        while t < end && k < limit {
+            times.push(t);
+            k += 1;
+            t = begin + k as f64 * period;
+        }
+    } else if let Some(p) = optional(doc, n, "probability")? {
+        let id = attr(doc, n, "id")?;
+        let mut rng = SplitMix(mix(0, id, 0));
+        let mut t = begin;
+        while t < end {
+            if rng.next_f64() < p {
+                times.push(t);
+            }
+            t += 1.0;
+        }
+    } else {
+        return Err(ImportError::at(
+            doc,
+            n,
+            "a flow needs vehsPerHour, period, probability or number",
         ));
     }
-    if departures.is_empty() {
-        return Err(ImportError::plain(
-            "the route file has no vehicle or flow with a usable route".into(),
-        ));
-    }
-    departures.sort_by(|a, b| a.time.total_cmp(&b.time));
-    Ok(Demand {
-        simulator: SimulatorDef::Demand { departures },
-        warnings,
-    })
+    Ok(Some(times))
+}
+
+/// A generator state from a seed, an element id and an index (FNV-1a).
+fn mix(seed: u64, id: &str, k: usize) -> u64 {
+    let h = id.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
+    });
+    h ^ seed.rotate_left(17) ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+}
+
+/// The built-in kind nearest in length (vehicles without a vType).
+fn nearest_builtin(length: f64) -> String {
+    trafficmesh_model::catalog::builtin_names()
+        .filter_map(trafficmesh_model::catalog::builtin_kind)
+        .min_by(|a, b| {
+            (a.length - length)
+                .abs()
+                .total_cmp(&(b.length - length).abs())
+        })
+        .map(|k| k.name)
+        .expect("the catalogue is not empty")
 }

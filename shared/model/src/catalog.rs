@@ -15,6 +15,33 @@ pub struct VehicleKind {
     /// This type's driver model; None takes the run's.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub driver: Option<crate::DriverModel>,
+    /// This type's own parameters for the `realistic` model (a SUMO vType's
+    /// accel, decel, minGap, tau and maxSpeed), used whenever it drives by it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub idm: Option<crate::IdmParams>,
+}
+
+impl VehicleKind {
+    /// A kind of its own size (a SUMO vType): the rear axle where the
+    /// built-in kind nearest in length has it, in proportion.
+    pub fn sized(name: &str, length: f64, width: f64) -> VehicleKind {
+        let nearest = builtin_names()
+            .filter_map(builtin_kind)
+            .min_by(|a, b| {
+                (a.length - length)
+                    .abs()
+                    .total_cmp(&(b.length - length).abs())
+            })
+            .expect("the catalogue is not empty");
+        VehicleKind {
+            name: name.to_string(),
+            front: nearest.front / nearest.length * length,
+            length,
+            width,
+            driver: None,
+            idm: None,
+        }
+    }
 }
 
 /// (name, bounds centre z, extents x, extents z) of the shipped prefabs.
@@ -40,6 +67,7 @@ pub fn builtin_kind(name: &str) -> Option<VehicleKind> {
             length: 2.0 * ext_z,
             width: 2.0 * ext_x,
             driver: None,
+            idm: None,
         },
     )
 }

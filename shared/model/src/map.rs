@@ -293,6 +293,10 @@ pub struct MapFile {
     pub zebra_configs: Vec<ZebraConfigDef>,
     #[serde(default)]
     pub traffic_simulators: Vec<SimulatorDef>,
+    /// Vehicle kinds of the map's own beside the built-in catalogue (a SUMO
+    /// scenario's vTypes), by name.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vehicle_kinds: Vec<crate::VehicleKind>,
     /// The map does not mark every place where lanes cross, split or join as
     /// a junction (Lanelet2 imports): vehicles there are kept apart by conflict
     /// zones between any lanes whose vehicles could touch, the one nearer the
@@ -617,8 +621,13 @@ impl MapFile {
                 p.add(el, prefab_field, "is empty");
             }
             for prefab in prefabs {
-                if builtin_kind(prefab).is_none() {
-                    let known: Vec<&str> = crate::catalog::builtin_names().collect();
+                if builtin_kind(prefab).is_none()
+                    && !self.vehicle_kinds.iter().any(|k| k.name == **prefab)
+                {
+                    let known: Vec<&str> = crate::catalog::builtin_names()
+                        .map(|n| -> &str { n })
+                        .chain(self.vehicle_kinds.iter().map(|k| k.name.as_str()))
+                        .collect();
                     p.add(
                         el,
                         prefab_field,

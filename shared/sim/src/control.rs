@@ -41,9 +41,14 @@ fn move_towards(current: f64, target: f64, max_delta: f64) -> f64 {
     }
 }
 
-/// The driver model of the vehicle's type, else the run's.
+/// The driver model of the vehicle's type, else the run's; a type with
+/// parameters of its own drives the realistic model by them.
 pub fn driver_model(net: &LaneNetwork, v: &Vehicle, c: &NpcVehicleConfig) -> DriverModel {
-    net.kinds[v.kind].driver.unwrap_or(c.driver_model)
+    let kind = &net.kinds[v.kind];
+    match (kind.driver.unwrap_or(c.driver_model), kind.idm) {
+        (DriverModel::Realistic(_), Some(own)) => DriverModel::Realistic(own),
+        (model, _) => model,
+    }
 }
 
 /// Updates speed and arc position by the vehicle's driver model.

@@ -189,7 +189,8 @@ impl LaneNetwork {
         let junction_count =
             find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);
 
-        let mut kinds: Vec<VehicleKind> = Vec::new();
+        // The map's own kinds first, so that their names win over the catalogue's.
+        let mut kinds: Vec<VehicleKind> = map.vehicle_kinds.clone();
         let mut kind_index = |name: &str| intern_kind(&mut kinds, name).expect("validated");
         let simulators = map
             .traffic_simulators
@@ -331,14 +332,29 @@ impl LaneNetwork {
         self.crosswalks.iter().position(|c| c.name == name)
     }
 
+    /// Kind index of a kind of the map's own (a route file's vType), adding
+    /// it if its name is new; a known name keeps its kind.
+    pub fn add_kind(&mut self, kind: VehicleKind) -> usize {
+        match self.kinds.iter().position(|k| k.name == kind.name) {
+            Some(i) => i,
+            None => {
+                self.kinds.push(kind);
+                self.kinds.len() - 1
+            }
+        }
+    }
+
     /// Kind index for a vehicle kind name, adding a built-in kind if needed.
     pub fn kind_index(&mut self, name: &str) -> Option<usize> {
         intern_kind(&mut self.kinds, name)
     }
 }
 
-/// Index of the built-in kind `name` in `kinds`, appending it on first use.
+/// Index of the kind `name` in `kinds`, appending a built-in kind on first use.
 fn intern_kind(kinds: &mut Vec<VehicleKind>, name: &str) -> Option<usize> {
+    if let Some(i) = kinds.iter().position(|k| k.name == name) {
+        return Some(i);
+    }
     let kind = builtin_kind(name)?;
     Some(match kinds.iter().position(|k| k.name == kind.name) {
         Some(i) => i,

@@ -16,24 +16,35 @@ use crate::output;
 #[derive(Args)]
 pub struct SimArgs {
     /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "sumocfg")]
     routes: Option<PathBuf>,
     /// Map file: native `.map.json` (make one with `trafficmesh gen-grid`), SUMO
     /// `.net.xml` or Lanelet2 `.osm`.
+    #[arg(long, required_unless_present = "sumocfg", conflicts_with = "sumocfg")]
+    map: Option<PathBuf>,
+    /// A SUMO scenario as shipped (`.sumocfg`): its network, route files and
+    /// additional files (signal programs, vehicle types), and its begin/end.
     #[arg(long)]
-    map: PathBuf,
-    /// Simulated seconds to run.
-    #[arg(long, allow_negative_numbers = true)]
-    duration: f64,
+    sumocfg: Option<PathBuf>,
+    /// Simulated seconds to run. With --sumocfg it defaults to the
+    /// configuration's end, else to when every vehicle has arrived (at most a day).
+    #[arg(
+        long,
+        allow_negative_numbers = true,
+        required_unless_present = "sumocfg"
+    )]
+    duration: Option<f64>,
     /// Random seed: same map, config and seed give the same trajectories.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Spawn rates and branch weights (the seed's traffic_spawn.json format).
     #[arg(long)]
     spawn_config: Option<PathBuf>,
-    /// Maximum simultaneous NPC vehicles (the seed's maxVehicleCount).
-    #[arg(long, default_value_t = 40)]
-    max_vehicles: usize,
+    /// Maximum simultaneous NPC vehicles (the AWSIM reference's
+    /// maxVehicleCount, 40). With --routes or --sumocfg there is no cap unless
+    /// one is given: a timetable's vehicles all depart, as in SUMO.
+    #[arg(long)]
+    max_vehicles: Option<usize>,
     /// Worker threads (0 = one per core). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
@@ -114,8 +125,11 @@ struct Summary {
 
 /// The model asked for, else realistic on a SUMO network (whose demand was
 /// made for traffic that flows like real traffic) and awsim elsewhere.
-fn driver_model(asked: Option<DriverModelName>, map: &std::path::Path) -> DriverModel {
-    let is_sumo = map.to_string_lossy().ends_with(".net.xml");
+fn driver_model(asked: Option<DriverModelName>, map: Option<&std::path::Path>) -> DriverModel {
+    let name = map
+        .map(|m| m.to_string_lossy().to_lowercase())
+        .unwrap_or_default();
+    let is_sumo = name.ends_with(".net.xml") || name.ends_with(".sumocfg");
     let name = match asked {
         Some(DriverModelName::Awsim) => "awsim",
         Some(DriverModelName::Realistic) => "realistic",
@@ -125,12 +139,36 @@ fn driver_model(asked: Option<DriverModelName>, map: &std::path::Path) -> Driver
     DriverModel::by_name(name).expect("a known model")
 }
 
+/// The longest a run to the end of its demand goes on, simulated seconds.
+const UNTIL_DONE_LIMIT: f64 = 86_400.0;
+
+/// The network and its warnings, from --sumocfg or --map (and --routes), and
+/// the run's length: given, the configuration's, or until the demand is done.
+fn load(a: &SimArgs) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, Option<f64>)> {
+    if let Some(cfg) = &a.sumocfg {
+        let scenario = trafficmesh_maps::load_scenario(cfg, a.seed)?;
+        let net = trafficmesh_sim::LaneNetwork::build(&scenario.map).map_err(|p| {
+            trafficmesh_maps::FileError::Invalid {
+                path: cfg.clone(),
+                problems: p,
+            }
+        })?;
+        let window = scenario.config.end.map(|end| end - scenario.config.begin);
+        return Ok((net, scenario.warnings, a.duration.or(window)));
+    }
+    let map = a
+        .map
+        .as_deref()
+        .expect("clap requires --map without --sumocfg");
+    let (net, warnings) = trafficmesh_maps::load_network_with_routes(map, a.routes.as_deref())?;
+    Ok((net, warnings, a.duration))
+}
+
 pub fn run(a: SimArgs) -> Result<()> {
-    if !(a.duration.is_finite() && a.duration > 0.0) {
-        bail!(
-            "--duration must be a positive number of seconds, got {}",
-            a.duration
-        );
+    if let Some(d) = a.duration
+        && !(d.is_finite() && d > 0.0)
+    {
+        bail!("--duration must be a positive number of seconds, got {d}");
     }
     if !(a.jam_timeout.is_finite() && a.jam_timeout >= 0.0) {
         bail!(
@@ -147,17 +185,23 @@ pub fn run(a: SimArgs) -> Result<()> {
             SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
         },
         fixed_speed_limit: a.fixed_speed_limit,
-        driver_model: driver_model(a.driver_model, &a.map),
+        driver_model: driver_model(a.driver_model, a.sumocfg.as_deref().or(a.map.as_deref())),
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;
-    let (net, warnings) = trafficmesh_maps::load_network_with_routes(&a.map, a.routes.as_deref())?;
+    let (net, warnings, duration) = load(&a)?;
     for w in warnings {
         eprintln!("warning: {w}");
     }
     let config = WorldConfig {
         seed: a.seed,
-        max_vehicles: a.max_vehicles,
+        max_vehicles: a
+            .max_vehicles
+            .unwrap_or(if a.routes.is_some() || a.sumocfg.is_some() {
+                usize::MAX
+            } else {
+                WorldConfig::default().max_vehicles
+            }),
         dt: a.dt,
         vehicle,
         jam_timeout: a.jam_timeout,
@@ -174,7 +218,9 @@ pub fn run(a: SimArgs) -> Result<()> {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let pool = thread_pool(a.threads)?;
-    let ticks = (a.duration / a.dt).round() as u64;
+    // Without a length, run until every vehicle has arrived.
+    let until_done = duration.is_none();
+    let ticks = (duration.unwrap_or(UNTIL_DONE_LIMIT) / a.dt).round() as u64;
     let progress = ProgressBar::new(ticks).with_style(
         ProgressStyle::with_template("{bar:40} {percent:>3}% sim {msg} eta {eta}")
             .expect("valid template"),
@@ -206,6 +252,9 @@ pub fn run(a: SimArgs) -> Result<()> {
                     _ => {}
                 }
             }
+            if until_done && tick > 0 && world.demand_done() {
+                break;
+            }
             if tick.is_multiple_of(250) {
                 progress.set_position(tick);
                 progress.set_message(format!("{:.0}s, {n} vehicles", world.time()));
@@ -228,17 +277,22 @@ pub fn run(a: SimArgs) -> Result<()> {
     }
     let waits = world.wait_stats();
     let summary = Summary {
-        map: a.map.display().to_string(),
+        map: a
+            .sumocfg
+            .as_ref()
+            .or(a.map.as_ref())
+            .map(|p| p.display().to_string())
+            .unwrap_or_default(),
         driver_model: world.config().vehicle.driver_model.name(),
         seed: a.seed,
         threads: pool.current_num_threads(),
         dt: a.dt,
-        ticks,
+        ticks: world.ticks(),
         simulated_seconds: world.time(),
         wall_seconds: wall,
         vehicle_steps,
         vehicle_steps_per_sec: vehicle_steps as f64 / wall.max(1e-9),
-        mean_vehicles: vehicle_steps as f64 / ticks.max(1) as f64,
+        mean_vehicles: vehicle_steps as f64 / world.ticks().max(1) as f64,
         max_vehicles: peak,
         spawned,
         despawned,

@@ -20,6 +20,13 @@ pub struct SpawnOrder {
     /// Leave the map at the route's end (a SUMO demand) instead of driving on.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub leave_at_route_end: bool,
+    /// The kind itself when it is not a built-in one (a route file's vType),
+    /// so that the stepper need not read the route files.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub kind_def: Option<crate::VehicleKind>,
+    /// A timetable's departure time, for the departure delay.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depart: Option<f64>,
 }
 
 /// The stepper's answer: one verdict per order, same order.

@@ -75,6 +75,11 @@ impl SpawnManager {
         self.simulators.iter().map(|s| s.backlog()).sum()
     }
 
+    /// Whether any simulator may still propose a vehicle.
+    pub fn any_enabled(&self) -> bool {
+        self.simulators.iter().any(|s| s.is_enabled())
+    }
+
     pub fn new(net: &LaneNetwork, seed: u64, with_map_simulators: bool) -> Self {
         let simulators = if with_map_simulators {
             from_specs(&net.simulators, seed, 0)

@@ -89,6 +89,11 @@ impl World {
         self.vehicles.iter().filter(|v| is_stuck(v)).count()
     }
 
+    /// No vehicle on the road and none left to come (a timetable run to its end).
+    pub fn demand_done(&self) -> bool {
+        self.vehicles.is_empty() && !self.spawner.any_enabled()
+    }
+
     /// Vehicles due to depart that have not found room on the road yet.
     pub fn insertion_backlog(&self) -> usize {
         self.spawner.backlog()

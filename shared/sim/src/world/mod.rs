@@ -166,6 +166,12 @@ impl World {
         self.net.kind_index(name)
     }
 
+    /// Index of a kind of the map's own (a route file's vType sent with a
+    /// spawn order), added on first use.
+    pub fn add_vehicle_kind(&mut self, kind: trafficmesh_model::VehicleKind) -> usize {
+        self.net.add_kind(kind)
+    }
+
     /// Time per tick phase, accumulated once enabled with [`World::phase_times_mut`].
     pub fn phase_times(&self) -> &PhaseTimes {
         &self.phase_times
