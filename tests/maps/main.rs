@@ -643,3 +643,120 @@ fn acosta_lane_routes_change_lanes_only_where_needed_and_where_there_is_room() {
     );
     assert!(changes > 0, "the demand has routes that need a lane change");
 }
+
+/// A SUMO scenario as shipped, on cross.net.xml: the additional file's
+/// tlLogic replaces the network's (red for the first 100 s), its
+/// vTypeDistribution is drawn from per vehicle with the run's seed, what is
+/// not simulated is named, and the configuration's end ends the run.
+#[test]
+fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("types.add.xml"),
+        r#"<additional>
+    <vTypeDistribution id="mix">
+        <vType id="short" length="4" accel="2.6" decel="4.5" probability="0.5"/>
+        <vType id="long" length="9" width="2.5" accel="1.5" decel="4" probability="0.5"/>
+    </vTypeDistribution>
+    <tlLogic id="junction" type="static" programID="late" offset="0">
+        <phase duration="100" state="rrrr"/>
+        <phase duration="60" state="GGGG"/>
+        <phase duration="4" state="yyyy"/>
+    </tlLogic>
+    <e1Detector id="d" lane="1i_0" pos="10" freq="60" file="out.xml"/>
+</additional>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("demand.rou.xml"),
+        r#"<routes>
+    <route id="west_east" edges="51o 1i 2o 52i"/>
+    <flow id="stream" type="mix" begin="0" end="60" vehsPerHour="600" route="west_east"/>
+</routes>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("run.sumocfg"),
+        format!(
+            r#"<configuration>
+    <input>
+        <net-file value="{}"/>
+        <route-files value="demand.rou.xml"/>
+        <additional-files value="types.add.xml"/>
+    </input>
+    <time><begin value="0"/><end value="300"/></time>
+</configuration>"#,
+            net.display()
+        ),
+    )
+    .unwrap();
+    let run = |seed: &str| {
+        let out_dir = dir.path().join(format!("out{seed}"));
+        let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+            .args(["sim", "--sumocfg"])
+            .arg(dir.path().join("run.sumocfg"))
+            .args(["--seed", seed, "--json", "--out"])
+            .arg(&out_dir)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{stderr}");
+        let summary: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        let trips = std::fs::read_to_string(out_dir.join("trips.csv")).unwrap();
+        (summary, trips, stderr)
+    };
+    let (summary, trips, stderr) = run("1");
+    assert!(
+        stderr.contains("1 tlLogic program(s) from the additional files replace the network's"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("read but not simulated: 1 e1Detector"),
+        "{stderr}"
+    );
+    assert_eq!(summary["driver_model"], "realistic", "{summary}");
+    assert!(
+        (summary["simulated_seconds"].as_f64().unwrap() - 300.0).abs() < 0.1,
+        "the configuration's end: {summary}"
+    );
+    assert_eq!(summary["inserted"], 10, "{summary}");
+    assert_eq!(summary["arrived"], 10, "{summary}");
+    let rows: Vec<&str> = trips.lines().skip(1).collect();
+    let first: Vec<&str> = rows
+        .iter()
+        .find(|r| r.starts_with("0,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    let arrival: f64 = first[3].parse().unwrap();
+    assert!(
+        arrival > 130.0,
+        "the replacement program holds the first car at red for 100 s: it arrived at {arrival}"
+    );
+    let kinds = |trips: &str| -> Vec<String> {
+        trips
+            .lines()
+            .skip(1)
+            .map(|r| r.split(',').nth(1).unwrap().to_string())
+            .collect()
+    };
+    let drawn = kinds(&trips);
+    assert!(
+        drawn.iter().all(|k| k == "short" || k == "long"),
+        "{drawn:?}"
+    );
+    assert!(
+        drawn.iter().any(|k| k == "short") && drawn.iter().any(|k| k == "long"),
+        "both members drawn: {drawn:?}"
+    );
+    let (_, again, _) = run("1");
+    assert_eq!(kinds(&again), drawn, "the same seed draws the same types");
+    let others: Vec<Vec<String>> = ["2", "3"].iter().map(|s| kinds(&run(s).1)).collect();
+    assert!(
+        others.iter().any(|o| *o != drawn),
+        "another seed draws other types"
+    );
+}

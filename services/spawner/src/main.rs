@@ -32,7 +32,7 @@ struct Args {
     #[command(flatten)]
     map: MapArgs,
     /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "sumocfg")]
     routes: Option<PathBuf>,
     /// Random seed of the simulators.
     #[arg(long, default_value_t = 0)]
@@ -75,8 +75,9 @@ fn main() -> ExitCode {
 
 fn run(args: Args) -> Result<()> {
     args.bus.keys()?;
-    let (net, warnings) =
-        trafficmesh_maps::load_network_with_routes(&args.map.map, args.routes.as_deref())?;
+    let (net, warnings) = args
+        .map
+        .load_with_routes(args.routes.as_deref(), args.seed)?;
     for w in warnings {
         tracing::warn!("route file: {w}");
     }

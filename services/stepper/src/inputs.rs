@@ -23,6 +23,18 @@ pub struct StepperStatus {
     pub tick_rate: f64,
     pub spawned: u64,
     pub despawned: u64,
+    /// Vehicles that entered the road (`spawned`, in SUMO's word).
+    pub inserted: u64,
+    /// Vehicles that reached the end of their route or of the road.
+    pub arrived: u64,
+    /// The longest standstill of any vehicle so far, seconds.
+    pub max_wait_s: f64,
+    /// Vehicles standing for 60 s or more, not at a red light (once a second).
+    pub stuck_vehicles: usize,
+    /// Jammed vehicles moved on or taken off by the jam timeout.
+    pub jam_resolutions: u64,
+    /// Of those, the ones taken off the road.
+    pub jam_removals: u64,
     pub batches_dropped: u64,
     pub lights_stale: bool,
     pub crosswalks_stale: bool,

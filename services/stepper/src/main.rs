@@ -47,6 +47,14 @@ pub struct Args {
     /// Stop after this many simulated seconds (default: run until stopped).
     #[arg(long, allow_negative_numbers = true)]
     duration: Option<f64>,
+    /// Driver model of vehicle types that do not choose their own: `awsim`
+    /// or `realistic` (IDM). Default: realistic on SUMO maps, awsim elsewhere.
+    #[arg(long, value_parser = ["awsim", "realistic"])]
+    driver_model: Option<String>,
+    /// Seconds a queue head may stand (not at a red light) before it is moved
+    /// to the next lane of its way with room, or taken off (0: never).
+    #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
+    jam_timeout: f64,
 }
 
 fn main() -> ExitCode {
@@ -68,11 +76,26 @@ fn run(args: Args) -> Result<()> {
     {
         bail!("--duration must be a positive number of seconds, got {d}");
     }
+    if !(args.jam_timeout.is_finite() && args.jam_timeout >= 0.0) {
+        bail!(
+            "--jam-timeout must be 0 (never) or a positive number of seconds, got {}",
+            args.jam_timeout
+        );
+    }
     args.bus.keys()?;
     let net = args.map.load()?;
+    let driver_model = match args.driver_model.as_deref() {
+        Some(name) => trafficmesh_model::DriverModel::by_name(name).expect("clap checked it"),
+        None => trafficmesh_maps::default_driver_model(args.map.path()),
+    };
     let config = WorldConfig {
         seed: args.seed,
         dt: args.dt,
+        jam_timeout: args.jam_timeout,
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model,
+            ..Default::default()
+        },
         // The spawner's request carries the maximum; the world's own is unused.
         max_vehicles: usize::MAX,
         ..WorldConfig::default()

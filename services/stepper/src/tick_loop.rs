@@ -34,7 +34,8 @@ pub fn run(
     let started = Instant::now();
     let mut rate_window = (Instant::now(), 0u64);
     let mut tick_rate = 0.0;
-    let (mut spawned, mut despawned) = (0u64, 0u64);
+    let (mut spawned, mut despawned, mut arrived) = (0u64, 0u64, 0u64);
+    let mut stuck = 0;
     loop {
         // Everything that arrived since the last tick, in arrival order.
         loop {
@@ -71,7 +72,12 @@ pub fn run(
         for e in &events {
             match e {
                 Event::Spawned { .. } => spawned += 1,
-                Event::Despawned { .. } => despawned += 1,
+                Event::Despawned { reason, .. } => {
+                    despawned += 1;
+                    if matches!(reason.as_str(), "route_end" | "dead_end") {
+                        arrived += 1;
+                    }
+                }
                 Event::ZebraStop { .. }
                 | Event::ZebraClear { .. }
                 | Event::BranchDecision { .. } => {}
@@ -81,6 +87,8 @@ pub fn run(
         if rate_window.0.elapsed() >= Duration::from_secs(1) {
             tick_rate = rate_window.1 as f64 / rate_window.0.elapsed().as_secs_f64();
             rate_window = (Instant::now(), 0);
+            // A scan of every vehicle: once a second, not every tick.
+            stuck = world.stuck_vehicles();
         }
         let clock = Clock {
             tick: world.ticks(),
@@ -99,6 +107,13 @@ pub fn run(
             s.tick_rate = tick_rate;
             s.spawned = spawned;
             s.despawned = despawned;
+            s.inserted = spawned;
+            s.arrived = arrived;
+            let waits = world.wait_stats_so_far();
+            s.max_wait_s = waits.max_wait;
+            s.stuck_vehicles = stuck;
+            s.jam_resolutions = waits.jam_resolutions;
+            s.jam_removals = waits.jam_removals;
             s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
             s.crosswalks_stale = world.occupancy().is_stale();
             s.lights_stale = world.lights_stale();

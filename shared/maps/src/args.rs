@@ -1,5 +1,5 @@
-//! `--map` as every service and the CLI take it: one flag, one help text, one
-//! loader for every supported format.
+//! `--map` (or `--sumocfg`) as every service and the CLI take it: one flag
+//! pair, one help text, one loader for every supported format.
 
 use std::path::PathBuf;
 
@@ -10,12 +10,48 @@ use crate::FileError;
 #[derive(clap::Args, Clone, Debug)]
 pub struct MapArgs {
     /// Map file: native `.map.json`, SUMO `.net.xml` or Lanelet2 `.osm`.
+    #[arg(long, required_unless_present = "sumocfg", conflicts_with = "sumocfg")]
+    pub map: Option<PathBuf>,
+    /// A SUMO scenario (`.sumocfg`) instead of --map: its network with the
+    /// signal programs of its additional files, and its demand.
     #[arg(long)]
-    pub map: PathBuf,
+    pub sumocfg: Option<PathBuf>,
 }
 
 impl MapArgs {
+    /// The network (of the scenario, with its demand, when --sumocfg).
     pub fn load(&self) -> Result<LaneNetwork, FileError> {
-        crate::load_network(&self.map)
+        self.load_with_routes(None, 0).map(|(net, _)| net)
+    }
+
+    /// The network with a demand: the scenario's with --sumocfg (its vTypes
+    /// drawn with `seed`), else a route file's in place of the map's
+    /// simulators when one is given; with the import's warnings.
+    pub fn load_with_routes(
+        &self,
+        routes: Option<&std::path::Path>,
+        seed: u64,
+    ) -> Result<(LaneNetwork, Vec<String>), FileError> {
+        if let Some(cfg) = &self.sumocfg {
+            let scenario = crate::load_scenario(cfg, seed)?;
+            let net = LaneNetwork::build(&scenario.map).map_err(|problems| FileError::Invalid {
+                path: cfg.clone(),
+                problems,
+            })?;
+            return Ok((net, scenario.warnings));
+        }
+        let map = self
+            .map
+            .as_deref()
+            .expect("clap requires --map without --sumocfg");
+        crate::load_network_with_routes(map, routes)
+    }
+
+    /// The file named: the scenario or the map.
+    pub fn path(&self) -> &std::path::Path {
+        self.sumocfg
+            .as_deref()
+            .or(self.map.as_deref())
+            .expect("clap requires one")
     }
 }

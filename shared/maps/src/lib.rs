@@ -44,6 +44,16 @@ pub fn load_network_with_routes(
     Ok((net, demand.warnings))
 }
 
+/// The driver model a map runs by unless told: `realistic` for SUMO
+/// networks and scenarios (their demand was made for traffic that flows like
+/// real traffic), `awsim` (the AWSIM reference's) for every other map.
+pub fn default_driver_model(map: &std::path::Path) -> trafficmesh_model::DriverModel {
+    let name = map.to_string_lossy().to_lowercase();
+    let sumo = name.ends_with(".net.xml") || name.ends_with(".sumocfg");
+    let model = if sumo { "realistic" } else { "awsim" };
+    trafficmesh_model::DriverModel::by_name(model).expect("a known model")
+}
+
 /// Loads a map file and compiles it into the simulation's lane network, with
 /// every problem of the start-up checklist named.
 pub fn load_network(path: &std::path::Path) -> Result<trafficmesh_sim::LaneNetwork, FileError> {

@@ -10,7 +10,14 @@ use serde::Deserialize;
 pub struct ClusterConfig {
     #[serde(default = "default_cluster")]
     pub cluster: String,
-    pub map: PathBuf,
+    /// The map every service loads; or `sumocfg`.
+    #[serde(default)]
+    pub map: Option<PathBuf>,
+    /// A SUMO scenario instead of `map`: every service loads its network
+    /// (with the signal programs of its additional files) and the spawner
+    /// runs its demand.
+    #[serde(default)]
+    pub sumocfg: Option<PathBuf>,
     #[serde(default)]
     pub seed: u64,
     #[serde(default = "default_endpoint")]
@@ -77,6 +84,9 @@ pub struct StepperSection {
     pub speed: f64,
     /// Vehicles placed at start (benchmarks); 0 = the spawner fills the map.
     pub populate: usize,
+    /// `awsim` or `realistic`; None takes the map's default.
+    pub driver_model: Option<String>,
+    pub jam_timeout: f64,
 }
 impl Default for StepperSection {
     fn default() -> Self {
@@ -84,6 +94,8 @@ impl Default for StepperSection {
             dt: 0.02,
             speed: 1.0,
             populate: 0,
+            driver_model: None,
+            jam_timeout: trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT,
         }
     }
 }
@@ -164,6 +176,32 @@ impl ClusterConfig {
             .with_context(|| format!("cannot read {}", path.display()))?;
         let config: ClusterConfig =
             toml::from_str(&text).map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+        if config.map.is_some() == config.sumocfg.is_some() {
+            bail!(
+                "{}: give exactly one of `map` and `sumocfg`",
+                path.display()
+            );
+        }
+        if config.sumocfg.is_some() && config.spawner.routes.is_some() {
+            bail!(
+                "{}: spawner.routes and sumocfg both name a demand; keep one",
+                path.display()
+            );
+        }
+        if let Some(model) = &config.stepper.driver_model
+            && trafficmesh_model::DriverModel::by_name(model).is_none()
+        {
+            bail!(
+                "{}: stepper.driver_model '{model}' is not awsim or realistic",
+                path.display()
+            );
+        }
+        if !(config.stepper.jam_timeout.is_finite() && config.stepper.jam_timeout >= 0.0) {
+            bail!(
+                "{}: stepper.jam_timeout must be 0 (never) or a positive number of seconds",
+                path.display()
+            );
+        }
         if config.restart.initial_backoff_ms == 0
             || config.restart.max_backoff_ms < config.restart.initial_backoff_ms
         {
@@ -176,8 +214,17 @@ impl ClusterConfig {
     }
 
     /// Every service to start.
+    /// `--map M` or `--sumocfg S`, as every service takes it.
+    pub fn map_flags(&self) -> [String; 2] {
+        match (&self.sumocfg, &self.map) {
+            (Some(cfg), _) => ["--sumocfg".into(), cfg.display().to_string()],
+            (None, Some(map)) => ["--map".into(), map.display().to_string()],
+            (None, None) => unreachable!("load checks that one is given"),
+        }
+    }
+
     pub fn services(&self) -> Vec<Launch> {
-        let map = self.map.display().to_string();
+        let map = self.map_flags();
         let mut common = vec!["--cluster".to_string(), self.cluster.clone()];
         if let Some(z) = &self.zenoh_config {
             common.extend(["--zenoh-config".into(), z.display().to_string()]);
@@ -192,7 +239,7 @@ impl ClusterConfig {
                     "tcp/127.0.0.1:0".into(),
                 ]);
             }
-            flags.extend(["--map".into(), map.clone()]);
+            flags.extend(map.clone());
             flags.extend(extra);
             flags
         };
@@ -200,9 +247,8 @@ impl ClusterConfig {
         if self.zenoh_config.is_none() {
             stepper.extend(["--listen".into(), self.endpoint.clone()]);
         }
+        stepper.extend(map.clone());
         stepper.extend([
-            "--map".into(),
-            map.clone(),
             "--seed".into(),
             self.seed.to_string(),
             "--dt".into(),
@@ -211,7 +257,12 @@ impl ClusterConfig {
             self.stepper.speed.to_string(),
             "--populate".into(),
             self.stepper.populate.to_string(),
+            "--jam-timeout".into(),
+            self.stepper.jam_timeout.to_string(),
         ]);
+        if let Some(model) = &self.stepper.driver_model {
+            stepper.extend(["--driver-model".into(), model.clone()]);
+        }
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),
             (

@@ -123,20 +123,15 @@ struct Summary {
     trajectory_hash: String,
 }
 
-/// The model asked for, else realistic on a SUMO network (whose demand was
-/// made for traffic that flows like real traffic) and awsim elsewhere.
-fn driver_model(asked: Option<DriverModelName>, map: Option<&std::path::Path>) -> DriverModel {
-    let name = map
-        .map(|m| m.to_string_lossy().to_lowercase())
-        .unwrap_or_default();
-    let is_sumo = name.ends_with(".net.xml") || name.ends_with(".sumocfg");
-    let name = match asked {
-        Some(DriverModelName::Awsim) => "awsim",
-        Some(DriverModelName::Realistic) => "realistic",
-        None if is_sumo => "realistic",
-        None => "awsim",
-    };
-    DriverModel::by_name(name).expect("a known model")
+/// The model asked for, else the map's default.
+fn driver_model(asked: Option<DriverModelName>, map: &std::path::Path) -> DriverModel {
+    match asked {
+        Some(DriverModelName::Awsim) => DriverModel::Awsim,
+        Some(DriverModelName::Realistic) => {
+            DriverModel::by_name("realistic").expect("a known model")
+        }
+        None => trafficmesh_maps::default_driver_model(map),
+    }
 }
 
 /// The longest a run to the end of its demand goes on, simulated seconds.
@@ -185,7 +180,13 @@ pub fn run(a: SimArgs) -> Result<()> {
             SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
         },
         fixed_speed_limit: a.fixed_speed_limit,
-        driver_model: driver_model(a.driver_model, a.sumocfg.as_deref().or(a.map.as_deref())),
+        driver_model: driver_model(
+            a.driver_model,
+            a.sumocfg
+                .as_deref()
+                .or(a.map.as_deref())
+                .expect("clap requires one"),
+        ),
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;

@@ -61,10 +61,19 @@ pub fn run(a: UpArgs) -> Result<()> {
         config.endpoint = e;
     }
     if let Some(m) = a.map {
-        config.map = m;
+        config.map = Some(m);
+        config.sumocfg = None;
     }
     // Fail here, with the file named, rather than in five children at once.
-    trafficmesh_maps::load_network(&config.map)?;
+    match (&config.sumocfg, &config.map) {
+        (Some(cfg), _) => {
+            trafficmesh_maps::load_scenario(cfg, config.seed)?;
+        }
+        (None, Some(map)) => {
+            trafficmesh_maps::load_network(map)?;
+        }
+        (None, None) => unreachable!("ClusterConfig::load checks that one is given"),
+    }
     trafficmesh_bus::Keys::new(&config.cluster)?;
     if let Some(dir) = config.spawner.branch_csv.parent()
         && !dir.as_os_str().is_empty()

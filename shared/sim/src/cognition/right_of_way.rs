@@ -459,6 +459,12 @@ impl Ctx<'_, '_> {
     }
 
     fn right_hand_rule_on_intersection(&self) -> Hit {
+        // Released by deadlock breaking: through the junction, on it too; the
+        // one it was waiting for holds in FORCING_PRIORITY meanwhile, and
+        // yielding back to it would leave both creeping.
+        if self.forced_through() {
+            return None;
+        }
         self.others()
             .find(|o| {
                 o.on_intersection

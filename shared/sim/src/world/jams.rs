@@ -75,6 +75,13 @@ impl World {
         placed
     }
 
+    /// The figures as of the last look (once a simulated second), without
+    /// reading every vehicle: cheap enough for every tick.
+    pub fn wait_stats_so_far(&self) -> WaitStats {
+        self.wait_stats
+    }
+
+    /// The figures with the longest wait of the vehicles on the road now.
     pub fn wait_stats(&self) -> WaitStats {
         let mut stats = self.wait_stats;
         for v in &self.vehicles {
