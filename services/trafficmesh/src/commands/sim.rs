@@ -27,11 +27,12 @@ pub struct SimArgs {
     #[arg(long)]
     sumocfg: Option<PathBuf>,
     /// Simulated seconds to run. With --sumocfg it defaults to the
-    /// configuration's end, else to when every vehicle has arrived (at most a day).
+    /// configuration's end; with --sumocfg or --routes, else to when every
+    /// vehicle has arrived (at most a day).
     #[arg(
         long,
         allow_negative_numbers = true,
-        required_unless_present = "sumocfg"
+        required_unless_present_any = ["sumocfg", "routes"]
     )]
     duration: Option<f64>,
     /// Random seed: same map, config and seed give the same trajectories.

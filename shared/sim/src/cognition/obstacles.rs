@@ -257,7 +257,12 @@ fn ghost_room(speed: f64, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
 fn exit_blocked_by(snap: &Snapshot, v: &Vehicle, k: usize) -> Option<u32> {
     let exit = *v.path.get(k + 1)?;
     let occ = snap.index.on_lane(exit).first()?;
-    let room = occ.rear >= v.length + EXIT_ROOM_MARGIN || occ.speed >= EXIT_MOVING_SPEED;
+    // A realistic driver stands its own minimum gap behind the one ahead.
+    let margin = match crate::control::driver_model(snap.net, v, snap.config) {
+        trafficmesh_model::DriverModel::Awsim => EXIT_ROOM_MARGIN,
+        trafficmesh_model::DriverModel::Realistic(idm) => idm.min_gap + 0.5,
+    };
+    let room = occ.rear >= v.length + margin || occ.speed >= EXIT_MOVING_SPEED;
     (!room).then_some(occ.vehicle)
 }
 
