@@ -759,4 +759,33 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
         others.iter().any(|o| *o != drawn),
         "another seed draws other types"
     );
+
+    // SUMO runs the same configuration the same way: the replacement program
+    // holds its first car too, and both sides count the same trips.
+    let Some(python) = support::python_with("sumo", "eclipse-sumo==1.28.0") else {
+        return;
+    };
+    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["bench", "vs-sumo", "--json", "--sumocfg"])
+        .arg(dir.path().join("run.sumocfg"))
+        .arg("--sumo")
+        .arg(Path::new(&python).with_file_name("sumo"))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    for side in ["sumo", "trafficmesh"] {
+        let f = &report[side];
+        assert_eq!(f["inserted"], 10, "{side}: {report}");
+        assert_eq!(f["trips_completed"], 10, "{side}: {report}");
+        assert_eq!(f["jam_resolutions"], 0, "{side}: {report}");
+        assert!(
+            f["last_arrival_s"].as_f64().unwrap() > 130.0,
+            "{side} ran the replacement program: {report}"
+        );
+    }
 }

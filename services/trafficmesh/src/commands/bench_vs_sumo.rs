@@ -19,14 +19,19 @@ use serde::Serialize;
 #[derive(Args)]
 pub struct VsSumoArgs {
     /// SUMO network (.net.xml).
-    #[arg(long)]
-    net: PathBuf,
+    #[arg(long, requires = "routes", required_unless_present = "sumocfg")]
+    net: Option<PathBuf>,
     /// SUMO routes (.rou.xml) with routed vehicles and flows.
+    #[arg(long, requires = "net")]
+    routes: Option<PathBuf>,
+    /// A SUMO scenario as shipped (.sumocfg) instead of --net and --routes:
+    /// both run it whole (`sumo -c`, `trafficmesh sim --sumocfg`).
+    #[arg(long, conflicts_with_all = ["net", "routes"])]
+    sumocfg: Option<PathBuf>,
+    /// Simulated seconds (default: 900 with --net, until every vehicle has
+    /// arrived with --sumocfg).
     #[arg(long)]
-    routes: PathBuf,
-    /// Simulated seconds.
-    #[arg(long, default_value_t = 900.0)]
-    duration: f64,
+    duration: Option<f64>,
     /// Rounds, alternating SUMO and trafficmesh; the median round is reported.
     #[arg(long, default_value_t = 1)]
     rounds: usize,
@@ -45,19 +50,47 @@ struct Figures {
     vehicle_steps_per_sec: f64,
     instructions_per_vehicle_step: Option<f64>,
     peak_memory_bytes: u64,
+    inserted: u64,
+    /// Trips that reached their route's end.
     trips_completed: u64,
+    last_arrival_s: f64,
     mean_travel_time_s: f64,
     mean_waiting_time_s: f64,
+    mean_time_loss_s: f64,
+    /// SUMO's teleports; trafficmesh's jam resolutions (the same last resort).
+    jam_resolutions: u64,
 }
 
 #[derive(Serialize)]
 struct Report {
-    net: String,
-    routes: String,
-    duration: f64,
+    scenario: String,
+    duration: Option<f64>,
     sumo: Figures,
     trafficmesh: Figures,
+    /// trafficmesh's vehicle-steps per second over SUMO's.
     speedup: f64,
+    /// SUMO's wall time over trafficmesh's, for the same simulated run.
+    wall_time_ratio: f64,
+}
+
+impl VsSumoArgs {
+    /// The simulated seconds to run: given, else 900 for a net and routes,
+    /// else (a scenario) to its end.
+    fn run_length(&self) -> Option<f64> {
+        self.duration.or(if self.sumocfg.is_some() {
+            None
+        } else {
+            Some(900.0)
+        })
+    }
+
+    fn scenario(&self) -> String {
+        match (&self.sumocfg, &self.net, &self.routes) {
+            (Some(cfg), _, _) => cfg.display().to_string(),
+            (None, Some(net), Some(routes)) => format!("{} + {}", net.display(), routes.display()),
+            _ => unreachable!("clap requires --sumocfg or --net with --routes"),
+        }
+    }
 }
 
 /// Runs a child to its end (stdout kept in `scratch/stdout`): wall seconds,
@@ -136,18 +169,41 @@ fn sumo_binary(given: Option<PathBuf>) -> PathBuf {
 
 fn run_sumo(a: &VsSumoArgs, sumo: &Path, perf: bool, scratch: &Path) -> Result<Figures> {
     let stats = scratch.join("sumo-stats.xml");
+    let trips = scratch.join("sumo-trips.xml");
     let mut cmd = Command::new(sumo);
-    cmd.arg("-n").arg(&a.net).arg("-r").arg(&a.routes);
-    // Trip statistics are written only with duration-log.statistics.
+    match (&a.sumocfg, &a.net, &a.routes) {
+        (Some(cfg), _, _) => {
+            cmd.arg("-c").arg(cfg);
+        }
+        (None, Some(net), Some(routes)) => {
+            cmd.arg("-n").arg(net).arg("-r").arg(routes);
+        }
+        _ => unreachable!("clap requires --sumocfg or --net with --routes"),
+    }
+    if let Some(end) = a.run_length() {
+        cmd.args(["--end", &end.to_string()]);
+    }
+    // Trip statistics are written only with duration-log.statistics; the
+    // outputs go to the scratch folder, not where a configuration names them.
     cmd.args([
-        "--end",
-        &a.duration.to_string(),
         "--no-step-log",
+        "--no-warnings",
         "--duration-log.statistics",
         "--statistic-output",
     ])
-    .arg(&stats);
+    .arg(&stats)
+    .arg("--tripinfo-output")
+    .arg(&trips)
+    .arg("--log")
+    .arg(scratch.join("sumo-log.txt"));
     let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
+    let trip_text = std::fs::read_to_string(&trips)
+        .with_context(|| format!("SUMO wrote no {}", trips.display()))?;
+    let last_arrival = roxmltree::Document::parse(&trip_text)?
+        .descendants()
+        .filter(|n| n.has_tag_name("tripinfo"))
+        .filter_map(|n| n.attribute("arrival")?.parse::<f64>().ok())
+        .fold(0.0, f64::max);
     let text = std::fs::read_to_string(&stats)
         .with_context(|| format!("SUMO wrote no {}", stats.display()))?;
     let doc = roxmltree::Document::parse(&text)?;
@@ -165,40 +221,50 @@ fn run_sumo(a: &VsSumoArgs, sumo: &Path, perf: bool, scratch: &Path) -> Result<F
         vehicle_steps_per_sec: ups,
         instructions_per_vehicle_step: instructions.map(|i| i as f64 / (ups * sim_wall).max(1.0)),
         peak_memory_bytes: memory,
+        inserted: num("vehicles", "inserted")? as u64,
         trips_completed: num("vehicleTripStatistics", "count")? as u64,
+        last_arrival_s: last_arrival,
         mean_travel_time_s: num("vehicleTripStatistics", "duration")?,
         mean_waiting_time_s: num("vehicleTripStatistics", "waitingTime")?,
+        mean_time_loss_s: num("vehicleTripStatistics", "timeLoss")?,
+        jam_resolutions: num("teleports", "total")? as u64,
     })
 }
 
 fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures> {
     let out = scratch.join("trafficmesh");
     let mut cmd = Command::new(std::env::current_exe()?);
-    cmd.args(["sim", "--map"])
-        .arg(&a.net)
-        .arg("--routes")
-        .arg(&a.routes);
-    cmd.args([
-        "--duration",
-        &a.duration.to_string(),
-        "--max-vehicles",
-        "1000000",
-        "--json",
-        "--out",
-    ])
-    .arg(&out);
+    match (&a.sumocfg, &a.net, &a.routes) {
+        (Some(cfg), _, _) => {
+            cmd.arg("sim").arg("--sumocfg").arg(cfg);
+        }
+        (None, Some(net), Some(routes)) => {
+            cmd.args(["sim", "--map"])
+                .arg(net)
+                .arg("--routes")
+                .arg(routes);
+        }
+        _ => unreachable!("clap requires --sumocfg or --net with --routes"),
+    }
+    if let Some(end) = a.run_length() {
+        cmd.args(["--duration", &end.to_string()]);
+    }
+    cmd.args(["--json", "--out"]).arg(&out);
     let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(scratch.join("stdout"))?)?;
     let steps = s["vehicle_steps"].as_f64().unwrap_or(0.0);
     let mut trips = csv::Reader::from_path(out.join("trips.csv"))?;
-    let (mut n, mut travel, mut waiting) = (0u64, 0.0, 0.0);
+    let (mut n, mut travel, mut waiting, mut loss, mut last) = (0u64, 0.0, 0.0, 0.0, 0.0f64);
     for row in trips.records() {
         let row = row?;
         if row.get(7) == Some("route_end") {
             n += 1;
-            travel += row[3].parse::<f64>()? - row[2].parse::<f64>()?;
+            let arrival = row[3].parse::<f64>()?;
+            travel += arrival - row[2].parse::<f64>()?;
             waiting += row[6].parse::<f64>()?;
+            loss += row[9].parse::<f64>()?;
+            last = last.max(arrival);
         }
     }
     Ok(Figures {
@@ -206,9 +272,13 @@ fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures
         vehicle_steps_per_sec: s["vehicle_steps_per_sec"].as_f64().unwrap_or(0.0),
         instructions_per_vehicle_step: instructions.map(|i| i as f64 / steps.max(1.0)),
         peak_memory_bytes: memory,
+        inserted: s["inserted"].as_u64().unwrap_or(0),
         trips_completed: n,
+        last_arrival_s: last,
         mean_travel_time_s: travel / n.max(1) as f64,
         mean_waiting_time_s: waiting / n.max(1) as f64,
+        mean_time_loss_s: loss / n.max(1) as f64,
+        jam_resolutions: s["jam_resolutions"].as_u64().unwrap_or(0),
     })
 }
 
@@ -218,10 +288,10 @@ fn median(mut runs: Vec<Figures>) -> Figures {
 }
 
 pub fn run(a: VsSumoArgs) -> Result<()> {
-    if a.rounds == 0 || !(a.duration.is_finite() && a.duration > 0.0) {
+    if a.rounds == 0 || a.duration.is_some_and(|d| !(d.is_finite() && d > 0.0)) {
         bail!("--rounds and --duration must be positive");
     }
-    for f in [&a.net, &a.routes] {
+    for f in [&a.net, &a.routes, &a.sumocfg].into_iter().flatten() {
         if !f.exists() {
             bail!("{} does not exist", f.display());
         }
@@ -241,10 +311,10 @@ pub fn run(a: VsSumoArgs) -> Result<()> {
     let _ = std::fs::remove_dir_all(&scratch);
     let (sumo_f, tm) = (median(s_runs), median(t_runs));
     let report = Report {
-        net: a.net.display().to_string(),
-        routes: a.routes.display().to_string(),
-        duration: a.duration,
+        scenario: a.scenario(),
+        duration: a.run_length(),
         speedup: tm.vehicle_steps_per_sec / sumo_f.vehicle_steps_per_sec.max(1e-9),
+        wall_time_ratio: sumo_f.wall_seconds / tm.wall_seconds.max(1e-9),
         sumo: sumo_f,
         trafficmesh: tm,
     };
@@ -252,13 +322,13 @@ pub fn run(a: VsSumoArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
         return Ok(());
     }
-    println!(
-        "{} + {}, {} simulated s:",
-        report.net, report.routes, report.duration
-    );
+    let length = report
+        .duration
+        .map_or("to the end".to_string(), |d| format!("{d} simulated s"));
+    println!("{}, {length}:", report.scenario);
     for (name, f) in [("SUMO", &report.sumo), ("trafficmesh", &report.trafficmesh)] {
         println!(
-            "  {name:<12} wall {:.2} s, {:.0} vehicle-steps/s, {} instructions/vehicle-step, peak {:.0} MiB; {} trips, mean travel {:.1} s, waiting {:.1} s",
+            "  {name:<12} wall {:.2} s, {:.0} vehicle-steps/s, {} instructions/vehicle-step, peak {:.0} MiB",
             f.wall_seconds,
             f.vehicle_steps_per_sec,
             f.instructions_per_vehicle_step
@@ -266,11 +336,22 @@ pub fn run(a: VsSumoArgs) -> Result<()> {
                     "{i:.0}"
                 )),
             f.peak_memory_bytes as f64 / 1048576.0,
+        );
+        println!(
+            "  {:<12} {} inserted, {} arrived (last at {:.0} s); mean duration {:.1} s, waiting {:.1} s, time loss {:.1} s; {} teleports / jam resolutions",
+            "",
+            f.inserted,
             f.trips_completed,
+            f.last_arrival_s,
             f.mean_travel_time_s,
-            f.mean_waiting_time_s
+            f.mean_waiting_time_s,
+            f.mean_time_loss_s,
+            f.jam_resolutions
         );
     }
-    println!("  speedup (vehicle-steps/s): {:.1}x", report.speedup);
+    println!(
+        "  speedup: {:.1}x vehicle-steps/s, {:.1}x wall time",
+        report.speedup, report.wall_time_ratio
+    );
     Ok(())
 }
