@@ -15,6 +15,11 @@ use crate::vehicle::Vehicle;
 const STOPPED_SPEED: f64 = 0.05;
 /// No vehicle: the wait of one that waits for nobody.
 pub const NOBODY: u32 = u32::MAX;
+/// The junction a released vehicle goes through when its junction lane has
+/// no junction number (a junction lane that crosses no other, as Lanelet2
+/// maps have): without it the release would not be remembered, and the
+/// vehicle would yield again the next tick and creep.
+pub const UNNUMBERED_JUNCTION: u32 = u32::MAX;
 
 /// The vehicle `i` is stopped waiting for this tick (an index; [`NOBODY`] if
 /// none), and whether a rule rather than a body holds it. Taken while each
@@ -99,7 +104,7 @@ pub fn break_cycles(
             .path
             .iter()
             .find(|&&l| net.lane(l).intersection)
-            .and_then(|&l| net.lane(l).junction);
+            .map(|&l| net.lane(l).junction.unwrap_or(UNNUMBERED_JUNCTION));
         p.yield_phase = YieldPhase::None;
         p.dominating = None;
         let h = &mut perceptions[holder];

@@ -27,6 +27,8 @@ const PARALLEL_BAND_DEG: f64 = 35.0;
 const OVERRUN_TO_START: f64 = -0.5;
 const OVERRUN_TO_CANCEL: f64 = -1.0;
 const EGO_LATERAL: f64 = 2.0;
+/// Below this a vehicle before the junction is standing, not crossing.
+const CRAWL_SPEED: f64 = 0.5;
 const EGO_ANGLE_DEG: f64 = 30.0;
 
 /// What the predicates read about a vehicle, the own one and the others of its
@@ -42,6 +44,9 @@ pub struct RowInfo {
     pub on_intersection: bool,
     /// yieldingPriorityAtTrafficLight: before the junction at a red light.
     pub waiting_at_red: bool,
+    /// Moving at more than a crawl, or let through by deadlock breaking:
+    /// before the junction, only such a vehicle is about to cross.
+    pub crossing_soon: bool,
     pub yield_phase: YieldPhase,
     /// path[0] and path[1].
     pub lane: LaneId,
@@ -82,6 +87,7 @@ impl RowInfo {
         RowInfo {
             first_int: Some((first.k, first.lane)),
             considered: offset <= window && !obstructed,
+            crossing_soon: v.speed >= CRAWL_SPEED || v.forced_through.is_some(),
             on_intersection,
             waiting_at_red: !on_intersection && v.passability == LightColor::Red,
             entry: first.entry,
@@ -436,10 +442,12 @@ impl Ctx<'_, '_> {
     }
 
     fn forced_through(&self) -> bool {
-        let j = self
-            .info
-            .first_int
-            .and_then(|(_, l)| self.net().lane(l).junction);
+        let j = self.info.first_int.map(|(_, l)| {
+            self.net()
+                .lane(l)
+                .junction
+                .unwrap_or(super::deadlock::UNNUMBERED_JUNCTION)
+        });
         j.is_some() && self.v.forced_through == j
     }
 
@@ -491,13 +499,17 @@ impl Ctx<'_, '_> {
     /// A vehicle that should yield to us is crossing anyway (it was let through
     /// to break a deadlock, or it ignored us): hold here until it has passed.
     /// One still before the junction counts too (the reference looks only at
-    /// vehicles on it), unless its red light holds it: holding for that one
-    /// would block the junction until its light turns green.
+    /// vehicles on it) when it is about to cross (moving, or let through),
+    /// not when its red light holds it (holding for that one would block the
+    /// junction until its light turns green) nor when it stands: holding for a
+    /// standing one that is about to yield to us leaves both creeping, each
+    /// giving way to the other by turns.
     fn some_vehicle_forcing_priority(&self) -> Hit {
         self.others()
             .find(|o| {
                 !o.yield_phase.is_yielding_due_to_rules()
                     && !o.waiting_at_red
+                    && (o.on_intersection || o.crossing_soon)
                     && self.has_priority(self.info, o)
                     && if self.info.on_intersection && o.on_intersection {
                         self.intersect_now_front(o)
