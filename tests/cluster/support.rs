@@ -92,9 +92,15 @@ impl Cluster {
         let admin_port = free_port();
         let name = format!("t{}_{test}", std::process::id());
         let endpoint = format!("tcp/127.0.0.1:{}", free_port());
+        // A SUMO scenario goes in as `sumocfg`, any other map as `map`.
+        let map_key = if map.to_string_lossy().ends_with(".sumocfg") {
+            "sumocfg"
+        } else {
+            "map"
+        };
         let config = format!(
             r#"cluster = "{name}"
-map = "{map}"
+{map_key} = "{map}"
 endpoint = "{endpoint}"
 seed = 7
 [stepper]

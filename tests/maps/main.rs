@@ -654,50 +654,12 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("types.add.xml"),
-        r#"<additional>
-    <vTypeDistribution id="mix">
-        <vType id="short" length="4" accel="2.6" decel="4.5" probability="0.5"/>
-        <vType id="long" length="9" width="2.5" accel="1.5" decel="4" probability="0.5"/>
-    </vTypeDistribution>
-    <tlLogic id="junction" type="static" programID="late" offset="0">
-        <phase duration="100" state="rrrr"/>
-        <phase duration="60" state="GGGG"/>
-        <phase duration="4" state="yyyy"/>
-    </tlLogic>
-    <e1Detector id="d" lane="1i_0" pos="10" freq="60" file="out.xml"/>
-</additional>"#,
-    )
-    .unwrap();
-    std::fs::write(
-        dir.path().join("demand.rou.xml"),
-        r#"<routes>
-    <route id="west_east" edges="51o 1i 2o 52i"/>
-    <flow id="stream" type="mix" begin="0" end="60" vehsPerHour="600" route="west_east"/>
-</routes>"#,
-    )
-    .unwrap();
-    std::fs::write(
-        dir.path().join("run.sumocfg"),
-        format!(
-            r#"<configuration>
-    <input>
-        <net-file value="{}"/>
-        <route-files value="demand.rou.xml"/>
-        <additional-files value="types.add.xml"/>
-    </input>
-    <time><begin value="0"/><end value="300"/></time>
-</configuration>"#,
-            net.display()
-        ),
-    )
-    .unwrap();
+    let cfg = write_cross_scenario(dir.path(), &net);
     let run = |seed: &str| {
         let out_dir = dir.path().join(format!("out{seed}"));
         let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
             .args(["sim", "--sumocfg"])
-            .arg(dir.path().join("run.sumocfg"))
+            .arg(&cfg)
             .args(["--seed", seed, "--json", "--out"])
             .arg(&out_dir)
             .output()
@@ -767,7 +729,7 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
     };
     let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
         .args(["bench", "vs-sumo", "--json", "--sumocfg"])
-        .arg(dir.path().join("run.sumocfg"))
+        .arg(&cfg)
         .arg("--sumo")
         .arg(Path::new(&python).with_file_name("sumo"))
         .output()
@@ -788,4 +750,102 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
             "{side} ran the replacement program: {report}"
         );
     }
+}
+
+/// A small SUMO scenario on cross.net.xml in `dir`: a flow of ten from west
+/// to east (vTypeDistribution `mix` of `short` and `long`), an additional
+/// file whose tlLogic keeps the junction red for the first 100 s and which
+/// holds a detector, begin 0 and end 300. Returns the `.sumocfg`.
+fn write_cross_scenario(dir: &Path, net: &Path) -> PathBuf {
+    std::fs::write(
+        dir.join("types.add.xml"),
+        r#"<additional>
+    <vTypeDistribution id="mix">
+        <vType id="short" length="4" accel="2.6" decel="4.5" probability="0.5"/>
+        <vType id="long" length="9" width="2.5" accel="1.5" decel="4" probability="0.5"/>
+    </vTypeDistribution>
+    <tlLogic id="junction" type="static" programID="late" offset="0">
+        <phase duration="100" state="rrrr"/>
+        <phase duration="60" state="GGGG"/>
+        <phase duration="4" state="yyyy"/>
+    </tlLogic>
+    <e1Detector id="d" lane="1i_0" pos="10" freq="60" file="out.xml"/>
+</additional>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("demand.rou.xml"),
+        r#"<routes>
+    <route id="west_east" edges="51o 1i 2o 52i"/>
+    <flow id="stream" type="mix" begin="0" end="60" vehsPerHour="600" route="west_east"/>
+</routes>"#,
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("run.sumocfg"),
+        format!(
+            r#"<configuration>
+    <input>
+        <net-file value="{}"/>
+        <route-files value="demand.rou.xml"/>
+        <additional-files value="types.add.xml"/>
+    </input>
+    <time><begin value="0"/><end value="300"/></time>
+</configuration>"#,
+            net.display()
+        ),
+    )
+    .unwrap();
+    dir.join("run.sumocfg")
+}
+
+/// The cluster runs a SUMO scenario: every service loads it (the lights
+/// service runs the additional file's program, red for 100 s where the
+/// network's own turns green at 37 s) and the spawner its demand.
+#[test]
+fn a_sumocfg_drives_the_cluster() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let cfg = write_cross_scenario(dir.path(), &net);
+    let cluster = support::Cluster::start_on_with_admin("sumocfg", &cfg, "", false);
+    let base = cluster.admin.clone().unwrap();
+    let get = |path: &str| -> serde_json::Value {
+        let mut r = ureq::get(format!("{base}{path}")).call().unwrap();
+        r.body_mut().read_json().unwrap()
+    };
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs(70);
+    // The stepper's status comes once a second: wait for both to count ten.
+    let counted = || {
+        let s = get("/api/v1/status");
+        let spawned = s["services"]["spawner"]["details"]["spawned"].as_u64();
+        let inserted = s["services"]["stepper"]["details"]["inserted"].as_u64();
+        spawned.unwrap_or(0).min(inserted.unwrap_or(0))
+    };
+    while counted() < 10 {
+        assert!(
+            std::time::Instant::now() < deadline,
+            "the scenario's 10 vehicles did not all spawn and enter: {}",
+            get("/api/v1/status")
+        );
+        std::thread::sleep(std::time::Duration::from_millis(500));
+    }
+    let status = get("/api/v1/status");
+    let stepper = &status["services"]["stepper"]["details"];
+    assert!(stepper["time"].as_f64().unwrap() < 95.0, "{status}");
+    assert_eq!(stepper["inserted"], 10, "{status}");
+    let lights = get("/api/v1/lights");
+    let west_east = lights
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|l| l["group"] == "junction_3")
+        .unwrap_or_else(|| panic!("no group junction_3: {lights}"));
+    assert_eq!(west_east["color"], "red", "{west_east}");
+    let next = west_east["next_change"].as_f64().unwrap();
+    assert!(
+        (next - 100.0).abs() < 0.5,
+        "the replacement program turns green at 100 s, not {next}"
+    );
 }

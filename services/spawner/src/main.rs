@@ -79,7 +79,7 @@ fn run(args: Args) -> Result<()> {
         .map
         .load_with_routes(args.routes.as_deref(), args.seed)?;
     for w in warnings {
-        tracing::warn!("route file: {w}");
+        tracing::warn!("map and demand: {w}");
     }
     let mut state = SpawnerState::new(net, args.seed, args.max_vehicles);
     if args.spawn_config.exists() {
