@@ -559,25 +559,18 @@ fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
 /// SUMO's; the README gives the figures.)
 #[test]
 fn trip_statistics_on_a_sumo_demand_are_in_sumos_range() {
-    let Some(python) = support::python_with("sumo", "eclipse-sumo==1.28.0") else {
+    let (net, routes) = (grid_with_crossings(), grid_demand());
+    let args = [
+        "--duration".as_ref(),
+        "1200".as_ref(),
+        "--net".as_ref(),
+        net.as_os_str(),
+        "--routes".as_ref(),
+        routes.as_os_str(),
+    ];
+    let Some(report) = vs_sumo(&args) else {
         return;
     };
-    let sumo = Path::new(&python).with_file_name("sumo");
-    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-        .args(["bench", "vs-sumo", "--duration", "1200", "--json", "--net"])
-        .arg(grid_with_crossings())
-        .arg("--routes")
-        .arg(grid_demand())
-        .arg("--sumo")
-        .arg(&sumo)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     let (theirs, ours) = (&report["sumo"], &report["trafficmesh"]);
     assert_eq!(theirs["trips_completed"], 300, "{report}");
     assert_eq!(ours["trips_completed"], 300, "{report}");
@@ -724,22 +717,9 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
 
     // SUMO runs the same configuration the same way: the replacement program
     // holds its first car too, and both sides count the same trips.
-    let Some(python) = support::python_with("sumo", "eclipse-sumo==1.28.0") else {
+    let Some(report) = vs_sumo(&["--sumocfg".as_ref(), cfg.as_os_str()]) else {
         return;
     };
-    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-        .args(["bench", "vs-sumo", "--json", "--sumocfg"])
-        .arg(&cfg)
-        .arg("--sumo")
-        .arg(Path::new(&python).with_file_name("sumo"))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     for side in ["sumo", "trafficmesh"] {
         let f = &report[side];
         assert_eq!(f["inserted"], 10, "{side}: {report}");
@@ -848,4 +828,22 @@ fn a_sumocfg_drives_the_cluster() {
         (next - 100.0).abs() < 0.5,
         "the replacement program turns green at 100 s, not {next}"
     );
+}
+
+/// `trafficmesh bench vs-sumo --json` with these arguments and the SUMO of
+/// the virtualenv: its report; None (skipped) where SUMO is not installed.
+fn vs_sumo(args: &[&std::ffi::OsStr]) -> Option<serde_json::Value> {
+    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
+    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["bench", "vs-sumo", "--json", "--sumo"])
+        .arg(Path::new(&python).with_file_name("sumo"))
+        .args(args)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    Some(serde_json::from_slice(&out.stdout).unwrap())
 }
