@@ -815,6 +815,10 @@ fn a_sumocfg_drives_the_cluster() {
     let stepper = &status["services"]["stepper"]["details"];
     assert!(stepper["time"].as_f64().unwrap() < 95.0, "{status}");
     assert_eq!(stepper["inserted"], 10, "{status}");
+    assert_eq!(
+        status["services"]["spawner"]["details"]["max_vehicles"], 1_000_000,
+        "a timetable has no vehicle cap unless one is given: {status}"
+    );
     let lights = get("/api/v1/lights");
     let west_east = lights
         .as_array()

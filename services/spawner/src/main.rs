@@ -37,9 +37,11 @@ struct Args {
     /// Random seed of the simulators.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// maxVehicleCount: NPC vehicles alive at once.
-    #[arg(long, default_value_t = 40)]
-    max_vehicles: usize,
+    /// maxVehicleCount: NPC vehicles alive at once. Default: the AWSIM
+    /// reference's 40, and no cap (a million) with --routes or --sumocfg, so
+    /// that a timetable's vehicles all depart, as in SUMO.
+    #[arg(long)]
+    max_vehicles: Option<usize>,
     /// Spawn config (the seed's traffic_spawn.json): loaded at start if it
     /// exists, and the file that save and load use.
     #[arg(long, default_value = "traffic_spawn.json")]
@@ -69,6 +71,11 @@ impl Spawner {
     }
 }
 
+/// The AWSIM reference's maxVehicleCount.
+const DEFAULT_MAX_VEHICLES: usize = 40;
+/// The cap of a timetable run unless one is given: none in practice.
+const TIMETABLE_CAP: usize = 1_000_000;
+
 fn main() -> ExitCode {
     runtime::main_with(|| run(Args::parse()))
 }
@@ -81,7 +88,13 @@ fn run(args: Args) -> Result<()> {
     for w in warnings {
         tracing::warn!("map and demand: {w}");
     }
-    let mut state = SpawnerState::new(net, args.seed, args.max_vehicles);
+    let timetable = args.routes.is_some() || args.map.sumocfg.is_some();
+    let max_vehicles = args.max_vehicles.unwrap_or(if timetable {
+        TIMETABLE_CAP
+    } else {
+        DEFAULT_MAX_VEHICLES
+    });
+    let mut state = SpawnerState::new(net, args.seed, max_vehicles);
     if args.spawn_config.exists() {
         let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;
         state.set_config(config).map_err(|problems| {

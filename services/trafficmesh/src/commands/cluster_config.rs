@@ -103,7 +103,8 @@ impl Default for StepperSection {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SpawnerSection {
-    pub max_vehicles: usize,
+    /// Default: 40, or no cap with `routes` or `sumocfg` (the spawner's).
+    pub max_vehicles: Option<usize>,
     /// A SUMO route file whose demand replaces the map's simulators.
     pub routes: Option<PathBuf>,
     pub spawn_config: PathBuf,
@@ -112,7 +113,7 @@ pub struct SpawnerSection {
 impl Default for SpawnerSection {
     fn default() -> Self {
         SpawnerSection {
-            max_vehicles: 40,
+            max_vehicles: None,
             routes: None,
             spawn_config: "traffic_spawn.json".into(),
             branch_csv: "traffic_branch_decisions.csv".into(),
@@ -268,12 +269,10 @@ impl ClusterConfig {
             (
                 "spawner",
                 member({
-                    let mut flags = vec![
-                        "--seed".into(),
-                        self.seed.to_string(),
-                        "--max-vehicles".into(),
-                        self.spawner.max_vehicles.to_string(),
-                    ];
+                    let mut flags = vec!["--seed".into(), self.seed.to_string()];
+                    if let Some(max) = self.spawner.max_vehicles {
+                        flags.extend(["--max-vehicles".into(), max.to_string()]);
+                    }
                     if let Some(r) = &self.spawner.routes {
                         flags.extend(["--routes".into(), r.display().to_string()]);
                     }
