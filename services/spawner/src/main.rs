@@ -123,6 +123,8 @@ fn run(args: Args) -> Result<()> {
                     serde_json::json!({
                         "max_vehicles": s.max_vehicles,
                         "spawned": st.spawned,
+                        // A timetable's vehicles due and still waiting for room.
+                        "insertion_backlog": s.manager.backlog(),
                         "rejected": {
                             "too_close_to_ego": st.too_close_to_ego,
                             "rate_limited": st.rate_limited,
