@@ -1,7 +1,7 @@
 """A client we did not write (eclipse-zenoh from PyPI) against a running cluster.
 
 Usage: external_simulator.py ENDPOINT CLUSTER. Prints OK and exits 0 when:
-- vehicle batches (binary, read with `struct` from the README's layout) and
+- vehicle batches (binary, read with `struct` from the layout in docs/cluster.md) and
   light states arrive and decode;
 - an external simulator's proposal is spawned (its result names a vehicle
   that the stepper's events report as spawned on that lane);
@@ -37,7 +37,7 @@ lock = threading.Lock()
 batches, lights, spawned_on, results = [], {}, {}, []
 
 
-# The binary vehicle batch, read from the README's layout with `struct`.
+# The binary vehicle batch, read from the layout in docs/cluster.md with `struct`.
 HEADER = struct.Struct("<4sHHQdQI")
 RECORD = struct.Struct("<QIHBBBB10f")
 FLOATS = ("s", "x", "y", "z", "yaw", "speed", "accel", "length", "width", "check_distance")

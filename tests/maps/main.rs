@@ -556,7 +556,7 @@ fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
 /// mean travel and waiting times are within a quarter of SUMO's. (Nearer the
 /// grid's capacity they part: the reference's car following keeps 8.5 m at
 /// standstill and restarts slowly, so its junctions pass fewer vehicles than
-/// SUMO's; the README gives the figures.)
+/// SUMO's; docs/performance.md gives the figures.)
 #[test]
 fn trip_statistics_on_a_sumo_demand_are_in_sumos_range() {
     let (net, routes) = (grid_with_crossings(), grid_demand());

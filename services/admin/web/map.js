@@ -99,7 +99,7 @@ function buildPaths() {
   }
 }
 
-// One vehicle record of the binary batch (layout in the README).
+// One vehicle record of the binary batch (layout in docs/cluster.md).
 function vehicle(i) {
   const d = batch.view, o = HEADER_BYTES + i * batch.record;
   return {

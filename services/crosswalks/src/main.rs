@@ -25,7 +25,7 @@ use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
     name = "trafficmesh-crosswalks",
     version,
     about = "Crosswalk occupancy from pedestrian and cyclist poses, and the blocked-stop query",
-    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+    after_help = "Usually started by `trafficmesh up`. Keys: see docs/cluster.md."
 )]
 struct Args {
     #[command(flatten)]

@@ -19,7 +19,7 @@ use trafficmesh_sim::lights::{LightControl, Lights};
     name = "trafficmesh-lights",
     version,
     about = "Traffic-light programs on the stepper's clock: states, heartbeat, overrides",
-    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+    after_help = "Usually started by `trafficmesh up`. Keys: see docs/cluster.md."
 )]
 struct Args {
     #[command(flatten)]

@@ -16,7 +16,7 @@ use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
     name = "trafficmesh-pedestrians",
     version,
     about = "Pedestrians and cyclists crossing the map's crosswalks",
-    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+    after_help = "Usually started by `trafficmesh up`. Keys: see docs/cluster.md."
 )]
 struct Args {
     #[command(flatten)]

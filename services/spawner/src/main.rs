@@ -24,7 +24,7 @@ use crate::state::SpawnerState;
     name = "trafficmesh-spawner",
     version,
     about = "Spawn decisions, spawn config and branch statistics (the TrafficManager role)",
-    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+    after_help = "Usually started by `trafficmesh up`. Keys: see docs/cluster.md."
 )]
 struct Args {
     #[command(flatten)]

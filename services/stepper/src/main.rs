@@ -22,7 +22,7 @@ use trafficmesh_sim::{World, WorldConfig};
     name = "trafficmesh-stepper",
     version,
     about = "Steps every NPC vehicle each tick and publishes the clock, vehicle states and events",
-    after_help = "Usually started by `trafficmesh up`. Keys: see the README's bus table."
+    after_help = "Usually started by `trafficmesh up`. Keys: see docs/cluster.md."
 )]
 pub struct Args {
     #[command(flatten)]

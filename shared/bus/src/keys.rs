@@ -1,6 +1,6 @@
 //! The key-expression scheme: every key starts with the cluster name, so
 //! several clusters share one Zenoh network without seeing each other.
-//! The README's "Bus" table documents each key's direction, rate and payload.
+//! docs/cluster.md's "Bus" table documents each key's direction, rate and payload.
 
 use crate::BusError;
 

@@ -1,7 +1,7 @@
 //! The native map file (`*.map.json`): lanes, light groups, crosswalk areas,
 //! zebra-crossing whitelists and the traffic simulators of the scene.
 //!
-//! The README documents this format field by field. [`MapFile::validate`] runs the
+//! docs/maps.md documents this format field by field. [`MapFile::validate`] runs the
 //! seed's start-up checklist and reports every problem with the element's name.
 
 use std::collections::{HashMap, HashSet};

@@ -1,5 +1,5 @@
 //! Messages on the Zenoh bus (serde_json payloads, but the per-tick vehicle
-//! batch in the binary layout of `vehicle_codec`). The README's key-expression
+//! batch in the binary layout of `vehicle_codec`). docs/cluster.md's key-expression
 //! table says which key carries which type; these structs are that contract.
 //!
 //! Poses are in the map frame (metres, yaw in radians counter-clockwise from +x).

@@ -1,7 +1,7 @@
 //! Intersection right of way: the yield-phase state machine of the reference
 //! (section 3.6), evaluated on the previous tick's snapshot.
 //!
-//! Deliberate choices (README, "Behaviour notes"): traffic drives on the right, so
+//! Deliberate choices (docs/behaviour.md): traffic drives on the right, so
 //! the "left-hand rule" phases yield to traffic on the right (the seed: "yielding
 //! to right-hand traffic"); the approach window is 18 m or 4 s of travel,
 //! whichever is longer; a vehicle with no stop line yields at the junction
