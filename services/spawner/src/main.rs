@@ -71,11 +71,6 @@ impl Spawner {
     }
 }
 
-/// The AWSIM reference's maxVehicleCount.
-const DEFAULT_MAX_VEHICLES: usize = 40;
-/// The cap of a timetable run unless one is given: none in practice.
-const TIMETABLE_CAP: usize = 1_000_000;
-
 fn main() -> ExitCode {
     runtime::main_with(|| run(Args::parse()))
 }
@@ -89,11 +84,9 @@ fn run(args: Args) -> Result<()> {
         tracing::warn!("map and demand: {w}");
     }
     let timetable = args.routes.is_some() || args.map.sumocfg.is_some();
-    let max_vehicles = args.max_vehicles.unwrap_or(if timetable {
-        TIMETABLE_CAP
-    } else {
-        DEFAULT_MAX_VEHICLES
-    });
+    let max_vehicles = args
+        .max_vehicles
+        .unwrap_or(trafficmesh_sim::world::default_max_vehicles(timetable));
     let mut state = SpawnerState::new(net, args.seed, max_vehicles);
     if args.spawn_config.exists() {
         let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;

@@ -49,8 +49,8 @@ pub struct Args {
     duration: Option<f64>,
     /// Driver model of vehicle types that do not choose their own: `awsim`
     /// or `realistic` (IDM). Default: realistic on SUMO maps, awsim elsewhere.
-    #[arg(long, value_parser = ["awsim", "realistic"])]
-    driver_model: Option<String>,
+    #[arg(long)]
+    driver_model: Option<trafficmesh_model::DriverModel>,
     /// Seconds a queue head may stand (not at a red light) before it is moved
     /// to the next lane of its way with room, or taken off (0: never).
     #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
@@ -84,10 +84,9 @@ fn run(args: Args) -> Result<()> {
     }
     args.bus.keys()?;
     let net = args.map.load()?;
-    let driver_model = match args.driver_model.as_deref() {
-        Some(name) => trafficmesh_model::DriverModel::by_name(name).expect("clap checked it"),
-        None => trafficmesh_maps::default_driver_model(args.map.path()),
-    };
+    let driver_model = args
+        .driver_model
+        .unwrap_or_else(|| trafficmesh_maps::default_driver_model(args.map.path()));
     let config = WorldConfig {
         seed: args.seed,
         dt: args.dt,

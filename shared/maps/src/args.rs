@@ -33,12 +33,8 @@ impl MapArgs {
         seed: u64,
     ) -> Result<(LaneNetwork, Vec<String>), FileError> {
         if let Some(cfg) = &self.sumocfg {
-            let scenario = crate::load_scenario(cfg, seed)?;
-            let net = LaneNetwork::build(&scenario.map).map_err(|problems| FileError::Invalid {
-                path: cfg.clone(),
-                problems,
-            })?;
-            return Ok((net, scenario.warnings));
+            let (net, warnings, _) = crate::load_scenario_network(cfg, seed)?;
+            return Ok((net, warnings));
         }
         let map = self
             .map

@@ -41,7 +41,7 @@ pub enum FileError {
     },
 }
 
-fn read(path: &Path) -> Result<String, FileError> {
+pub(crate) fn read(path: &Path) -> Result<String, FileError> {
     fs::read_to_string(path).map_err(|source| FileError::Read {
         path: path.to_owned(),
         source,

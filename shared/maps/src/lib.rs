@@ -36,12 +36,33 @@ pub fn load_network_with_routes(
     let demand = load_routes(routes, &file)?;
     file.traffic_simulators = vec![demand.simulator];
     file.vehicle_kinds.extend(demand.kinds);
-    let net =
-        trafficmesh_sim::LaneNetwork::build(&file).map_err(|problems| FileError::Invalid {
-            path: routes.to_owned(),
-            problems,
-        })?;
-    Ok((net, demand.warnings))
+    Ok((build_network(&file, routes)?, demand.warnings))
+}
+
+/// Compiles a map read from `path` into the simulation's lane network, with
+/// every problem of the start-up checklist named against that file.
+pub fn build_network(
+    map: &trafficmesh_model::MapFile,
+    path: &std::path::Path,
+) -> Result<trafficmesh_sim::LaneNetwork, FileError> {
+    trafficmesh_sim::LaneNetwork::build(map).map_err(|problems| FileError::Invalid {
+        path: path.to_owned(),
+        problems,
+    })
+}
+
+/// A SUMO scenario's network with its demand (vTypes drawn with `seed`),
+/// the import's warnings, and the configuration.
+pub fn load_scenario_network(
+    path: &std::path::Path,
+    seed: u64,
+) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, SumoConfig), FileError> {
+    let scenario = load_scenario(path, seed)?;
+    Ok((
+        build_network(&scenario.map, path)?,
+        scenario.warnings,
+        scenario.config,
+    ))
 }
 
 /// The driver model a map runs by unless told: `realistic` for SUMO
@@ -57,9 +78,5 @@ pub fn default_driver_model(map: &std::path::Path) -> trafficmesh_model::DriverM
 /// Loads a map file and compiles it into the simulation's lane network, with
 /// every problem of the start-up checklist named.
 pub fn load_network(path: &std::path::Path) -> Result<trafficmesh_sim::LaneNetwork, FileError> {
-    let map = load_map(path)?;
-    trafficmesh_sim::LaneNetwork::build(&map).map_err(|problems| FileError::Invalid {
-        path: path.to_owned(),
-        problems,
-    })
+    build_network(&load_map(path)?, path)
 }

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use trafficmesh_model::MapFile;
 
-use crate::files::FileError;
+use crate::files::{FileError, read};
 use crate::import::{ImportError, attr, parse_xml};
 use crate::sumo_routes::DemandBuilder;
 
@@ -29,13 +29,6 @@ pub struct Scenario {
     pub map: MapFile,
     pub config: SumoConfig,
     pub warnings: Vec<String>,
-}
-
-fn read(path: &Path) -> Result<String, FileError> {
-    std::fs::read_to_string(path).map_err(|source| FileError::Read {
-        path: path.to_owned(),
-        source,
-    })
 }
 
 fn located(path: &Path) -> impl Fn(ImportError) -> FileError + '_ {

@@ -35,6 +35,16 @@ impl DriverModel {
     }
 }
 
+/// `awsim` or `realistic`, as command lines and configs name them.
+impl std::str::FromStr for DriverModel {
+    type Err = String;
+
+    fn from_str(name: &str) -> Result<Self, Self::Err> {
+        DriverModel::by_name(name)
+            .ok_or_else(|| format!("unknown driver model '{name}' (awsim or realistic)"))
+    }
+}
+
 /// The IDM's parameters; SUMO's vType attributes of the same meaning are
 /// noted beside each.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -8,6 +8,7 @@
 use trafficmesh_model::{DriverModel, IdmParams, NpcVehicleConfig, SpeedLimitSource, SpeedMode};
 
 use crate::cognition::path::point_on_path;
+use crate::decision::StopCandidates;
 use crate::network::LaneNetwork;
 use crate::vehicle::{Pose, Vehicle};
 
@@ -51,14 +52,22 @@ pub fn driver_model(net: &LaneNetwork, v: &Vehicle, c: &NpcVehicleConfig) -> Dri
     }
 }
 
-/// Updates speed and arc position by the vehicle's driver model.
-pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: f64) {
+/// Updates speed and arc position by the vehicle's driver model, from the
+/// Decision step's speed mode and stop points and the lane's speed limit.
+pub fn step_speed(
+    net: &LaneNetwork,
+    v: &mut Vehicle,
+    c: &NpcVehicleConfig,
+    stops: &StopCandidates,
+    speed_limit: f64,
+    dt: f64,
+) {
     let new_speed = match driver_model(net, v, c) {
         DriverModel::Awsim => {
-            let (target, rate) = speed_target(v.speed_mode, speed_limit(net, v, c), c);
+            let (target, rate) = speed_target(v.speed_mode, speed_limit, c);
             move_towards(v.speed, target, rate * dt).max(0.0)
         }
-        DriverModel::Realistic(idm) => realistic_speed(net, v, c, &idm, dt),
+        DriverModel::Realistic(idm) => realistic_speed(v, c, &idm, stops, speed_limit, dt),
     };
     v.acceleration = (new_speed - v.speed) / dt;
     v.speed = new_speed;
@@ -71,18 +80,17 @@ pub fn step_speed(net: &LaneNetwork, v: &mut Vehicle, c: &NpcVehicleConfig, dt: 
 /// reference's rules say to stop at, braking no harder than the absolute
 /// deceleration.
 fn realistic_speed(
-    net: &LaneNetwork,
     v: &Vehicle,
     c: &NpcVehicleConfig,
     idm: &IdmParams,
+    stops: &StopCandidates,
+    speed_limit: f64,
     dt: f64,
 ) -> f64 {
-    let mut desired = speed_limit(net, v, c).min(idm.max_speed);
+    let mut desired = speed_limit.min(idm.max_speed);
     if v.is_turning {
         desired = desired.min(TURN_SPEED);
     }
-    let stops =
-        crate::decision::stop_candidates(v, &crate::decision::StopDistances::at(v.speed, c));
     let follow =
         crate::idm::acceleration(idm, v.speed, desired, v.distance_to_front, v.front_speed);
     let stop_line = stops.traffic_light.min(stops.right_of_way).min(stops.zebra);

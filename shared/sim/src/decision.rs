@@ -90,7 +90,10 @@ pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) ->
     }
 }
 
-pub fn decide(v: &Vehicle, c: &NpcVehicleConfig) -> SpeedMode {
+/// The speed mode, and the stop points it was chosen from (the realistic
+/// driver model brakes for them itself).
+pub fn decide(v: &Vehicle, c: &NpcVehicleConfig) -> (SpeedMode, StopCandidates) {
     let d = StopDistances::at(v.speed, c);
-    speed_mode(stop_candidates(v, &d).nearest(), v.is_turning, &d)
+    let stops = stop_candidates(v, &d);
+    (speed_mode(stops.nearest(), v.is_turning, &d), stops)
 }

@@ -6,7 +6,7 @@
 //! saturation flow, vehicles per hour per lane.
 
 use anyhow::{Context, Result, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde::Serialize;
 use serde_json::json;
 use trafficmesh_model::{DriverModel, LightColor, MapFile, NpcVehicleConfig};
@@ -26,18 +26,12 @@ const SETTLE: f64 = 90.0;
 
 #[derive(Args)]
 pub struct SaturationArgs {
-    /// The driver model of the queued cars.
-    #[arg(long, value_enum, default_value_t = ModelName::Realistic)]
-    model: ModelName,
+    /// The driver model of the queued cars: `awsim` or `realistic`.
+    #[arg(long, default_value = "realistic")]
+    model: DriverModel,
     /// Print one JSON object instead of `key: value` lines.
     #[arg(long)]
     json: bool,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ModelName {
-    Awsim,
-    Realistic,
 }
 
 #[derive(Serialize)]
@@ -70,10 +64,7 @@ fn approach_map() -> Result<MapFile> {
 }
 
 pub fn run(a: SaturationArgs) -> Result<()> {
-    let driver_model = match a.model {
-        ModelName::Awsim => DriverModel::Awsim,
-        ModelName::Realistic => DriverModel::by_name("realistic").expect("a known model"),
-    };
+    let driver_model = a.model;
     let net = LaneNetwork::build(&approach_map()?)
         .map_err(|p| anyhow::anyhow!("the measurement's map is invalid: {p:?}"))?;
     let config = WorldConfig {

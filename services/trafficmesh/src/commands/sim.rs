@@ -72,14 +72,8 @@ pub struct SimArgs {
     /// Driver model of vehicle types that do not choose their own: `awsim` (the
     /// AWSIM reference's speed modes) or `realistic` (IDM car following).
     /// Default: realistic for SUMO networks, awsim for other maps.
-    #[arg(long, value_enum)]
-    driver_model: Option<DriverModelName>,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum DriverModelName {
-    Awsim,
-    Realistic,
+    #[arg(long)]
+    driver_model: Option<DriverModel>,
 }
 
 /// The seed's SpeedLimitSource.
@@ -124,17 +118,6 @@ struct Summary {
     trajectory_hash: String,
 }
 
-/// The model asked for, else the map's default.
-fn driver_model(asked: Option<DriverModelName>, map: &std::path::Path) -> DriverModel {
-    match asked {
-        Some(DriverModelName::Awsim) => DriverModel::Awsim,
-        Some(DriverModelName::Realistic) => {
-            DriverModel::by_name("realistic").expect("a known model")
-        }
-        None => trafficmesh_maps::default_driver_model(map),
-    }
-}
-
 /// The longest a run to the end of its demand goes on, simulated seconds.
 const UNTIL_DONE_LIMIT: f64 = 86_400.0;
 
@@ -142,15 +125,9 @@ const UNTIL_DONE_LIMIT: f64 = 86_400.0;
 /// the run's length: given, the configuration's, or until the demand is done.
 fn load(a: &SimArgs) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, Option<f64>)> {
     if let Some(cfg) = &a.sumocfg {
-        let scenario = trafficmesh_maps::load_scenario(cfg, a.seed)?;
-        let net = trafficmesh_sim::LaneNetwork::build(&scenario.map).map_err(|p| {
-            trafficmesh_maps::FileError::Invalid {
-                path: cfg.clone(),
-                problems: p,
-            }
-        })?;
-        let window = scenario.config.end.map(|end| end - scenario.config.begin);
-        return Ok((net, scenario.warnings, a.duration.or(window)));
+        let (net, warnings, config) = trafficmesh_maps::load_scenario_network(cfg, a.seed)?;
+        let window = config.end.map(|end| end - config.begin);
+        return Ok((net, warnings, a.duration.or(window)));
     }
     let map = a
         .map
@@ -181,13 +158,14 @@ pub fn run(a: SimArgs) -> Result<()> {
             SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
         },
         fixed_speed_limit: a.fixed_speed_limit,
-        driver_model: driver_model(
-            a.driver_model,
-            a.sumocfg
-                .as_deref()
-                .or(a.map.as_deref())
-                .expect("clap requires one"),
-        ),
+        driver_model: a.driver_model.unwrap_or_else(|| {
+            trafficmesh_maps::default_driver_model(
+                a.sumocfg
+                    .as_deref()
+                    .or(a.map.as_deref())
+                    .expect("clap requires one"),
+            )
+        }),
         ..NpcVehicleConfig::default()
     };
     vehicle.validate().map_err(anyhow::Error::msg)?;
@@ -199,11 +177,9 @@ pub fn run(a: SimArgs) -> Result<()> {
         seed: a.seed,
         max_vehicles: a
             .max_vehicles
-            .unwrap_or(if a.routes.is_some() || a.sumocfg.is_some() {
-                usize::MAX
-            } else {
-                WorldConfig::default().max_vehicles
-            }),
+            .unwrap_or(trafficmesh_sim::world::default_max_vehicles(
+                a.routes.is_some() || a.sumocfg.is_some(),
+            )),
         dt: a.dt,
         vehicle,
         jam_timeout: a.jam_timeout,

@@ -57,6 +57,7 @@ impl World {
             self.wait_stats.jam_resolutions += 1;
             let kind = self.vehicles[i].kind;
             let target = lanes_ahead(&self.net, &self.vehicles[i])
+                .into_iter()
                 .find(|&(lane, _)| self.is_spawnable(kind, lane, &placed));
             match target {
                 Some((lane, route_index)) => {
@@ -128,34 +129,26 @@ fn is_jammed_head(net: &LaneNetwork, v: &Vehicle) -> bool {
 /// The lanes a jammed vehicle may be moved to, nearest first: the ordinary
 /// (non-junction) lanes of its route after the one it is on, or, without a
 /// route, of its path. Each with its index in the route.
-fn lanes_ahead<'a>(
-    net: &'a LaneNetwork,
-    v: &'a Vehicle,
-) -> Box<dyn Iterator<Item = (LaneId, Option<usize>)> + 'a> {
-    let ordinary = move |lane: LaneId| !net.lane(lane).intersection;
-    match &v.route {
+fn lanes_ahead(net: &LaneNetwork, v: &Vehicle) -> Vec<(LaneId, Option<usize>)> {
+    // (index in the route, lane); the path's lanes have no route index.
+    let ahead: Vec<(Option<usize>, LaneId)> = match &v.route {
         Some(route) => {
             let here = route
                 .lanes
                 .iter()
                 .position(|&l| l == v.path[0])
                 .unwrap_or(0);
-            Box::new(
-                route.lanes[here + 1..]
-                    .iter()
-                    .enumerate()
-                    .filter(move |(_, l)| ordinary(**l))
-                    .map(move |(k, &l)| (l, Some(here + 1 + k))),
-            )
+            (here + 1..route.lanes.len())
+                .map(|k| (Some(k), route.lanes[k]))
+                .collect()
         }
-        None => Box::new(
-            v.path[1..]
-                .iter()
-                .copied()
-                .filter(move |&l| ordinary(l))
-                .map(|l| (l, None)),
-        ),
-    }
+        None => v.path[1..].iter().map(|&l| (None, l)).collect(),
+    };
+    ahead
+        .into_iter()
+        .filter(|&(_, l)| !net.lane(l).intersection)
+        .map(|(k, l)| (l, k))
+        .collect()
 }
 
 /// Puts the vehicle at the start of `lane`, rear bumper at 0, standing, with

@@ -38,6 +38,13 @@ pub use step::MIN_VEHICLES_PER_TASK;
 /// SUMO's default `time-to-teleport`, seconds.
 pub const DEFAULT_JAM_TIMEOUT: f64 = 300.0;
 
+/// maxVehicleCount unless one is given: the AWSIM reference's 40, and none in
+/// practice (a million) for a timetable (a route file or SUMO scenario), so
+/// that all its vehicles depart, as in SUMO.
+pub fn default_max_vehicles(timetable: bool) -> usize {
+    if timetable { 1_000_000 } else { 40 }
+}
+
 /// Run parameters, with the seed's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldConfig {
@@ -61,7 +68,7 @@ impl Default for WorldConfig {
     fn default() -> Self {
         WorldConfig {
             seed: 0,
-            max_vehicles: 40,
+            max_vehicles: default_max_vehicles(false),
             spawn_distance_to_ego: 50.0,
             dt: 0.02,
             vehicle: NpcVehicleConfig::default(),

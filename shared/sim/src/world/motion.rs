@@ -112,8 +112,11 @@ fn move_vehicle(
     if v.should_despawn {
         return;
     }
-    v.speed_mode = decide(v, config);
-    step_speed(net, v, config, dt);
+    let (mode, stops) = decide(v, config);
+    v.speed_mode = mode;
+    // One lookup of the lane's limit for the speed step and the trip's time loss.
+    let limit = speed_limit(net, v, config);
+    step_speed(net, v, config, &stops, limit, dt);
     update_pose(net, v);
-    update_trip(v, dt, speed_limit(net, v, config));
+    update_trip(v, dt, limit);
 }
