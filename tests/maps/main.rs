@@ -997,3 +997,236 @@ fn a_left_turn_facing_a_steady_opposing_stream_gets_through() {
     assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
     assert_eq!(w.wait_stats().jam_resolutions, 0);
 }
+
+/// A two-lane road through a junction whose right lane is a bus lane (SUMO's
+/// `allow="bus"`), made by netconvert. None (skipped) where SUMO is not
+/// installed.
+fn netconvert_bus_lane_road(dir: &Path) -> Option<PathBuf> {
+    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
+    std::fs::write(
+        dir.join("b.nod.xml"),
+        r#"<nodes>
+  <node id="W" x="-300" y="0"/><node id="C" x="0" y="0" type="priority"/><node id="E" x="300" y="0"/>
+</nodes>"#,
+    )
+    .unwrap();
+    let edge = |id: &str, from: &str, to: &str| {
+        format!(
+            "  <edge id=\"{id}\" from=\"{from}\" to=\"{to}\" numLanes=\"2\" speed=\"13.89\">\n    <lane index=\"0\" allow=\"bus\"/>\n  </edge>\n"
+        )
+    };
+    std::fs::write(
+        dir.join("b.edg.xml"),
+        format!(
+            "<edges>\n{}{}</edges>\n",
+            edge("WC", "W", "C"),
+            edge("CE", "C", "E")
+        ),
+    )
+    .unwrap();
+    let net = dir.join("bus_lane.net.xml");
+    let status = Command::new(Path::new(&python).with_file_name("netconvert"))
+        .arg("-n")
+        .arg(dir.join("b.nod.xml"))
+        .arg("-e")
+        .arg(dir.join("b.edg.xml"))
+        .arg("-o")
+        .arg(&net)
+        .args(["--no-turnarounds", "--no-warnings"])
+        .stdout(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "netconvert failed");
+    Some(net)
+}
+
+/// Bus lanes are closed to cars and open to buses: imported with their
+/// classes, cars of a route file and of random traffic keep off them, buses
+/// (vClass bus) run on them as vehicles of their own kind.
+#[test]
+fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(net) = netconvert_bus_lane_road(dir.path()) else {
+        return;
+    };
+    let map = trafficmesh_maps::import_map(&net).unwrap().map;
+    let bus_lane = map.lanes.iter().find(|l| l.name == "WC_0").unwrap();
+    assert_eq!(bus_lane.vehicle_classes, ["bus"], "{:?}", bus_lane.name);
+    let car_lane = map.lanes.iter().find(|l| l.name == "WC_1").unwrap();
+    assert!(car_lane.vehicle_classes.is_empty(), "open to all");
+
+    std::fs::write(
+        dir.path().join("mixed.rou.xml"),
+        r#"<routes>
+    <vType id="car" length="4.5"/>
+    <vType id="city_bus" vClass="bus"/>
+    <flow id="cars" type="car" begin="0" end="300" vehsPerHour="600"><route edges="WC CE"/></flow>
+    <flow id="buses" type="city_bus" begin="0" end="300" vehsPerHour="60"><route edges="WC CE"/></flow>
+</routes>"#,
+    )
+    .unwrap();
+    let (network, _) =
+        trafficmesh_maps::load_network_with_routes(&net, Some(&dir.path().join("mixed.rou.xml")))
+            .unwrap();
+    let mut routed = world_of(network, 0, usize::MAX);
+    let (network, _) = trafficmesh_maps::load_network_with_routes(&net, None).unwrap();
+    let mut random = world_of(network, 0, 30);
+    let mut arrived = std::collections::BTreeMap::<String, u32>::new();
+    let mut on_bus_lanes = std::collections::BTreeSet::<String>::new();
+    for _ in 0..(900.0 / 0.02) as usize {
+        for w in [&mut routed, &mut random] {
+            w.step();
+            let net = w.network();
+            for v in w.vehicles() {
+                let kind = &net.kinds[v.kind];
+                assert!(
+                    net.allows(v.path[0], v.kind),
+                    "a {} ({}) on {}",
+                    kind.name,
+                    kind.vehicle_class(),
+                    net.lane(v.path[0]).name
+                );
+                if !net.lane(v.path[0]).vehicle_classes.is_empty() {
+                    on_bus_lanes.insert(kind.name.clone());
+                }
+            }
+        }
+        for e in routed.drain_events() {
+            if let SimEvent::Despawned(t) = e {
+                *arrived.entry(t.kind).or_default() += 1;
+            }
+        }
+        random.drain_events();
+    }
+    // 600 and 60 an hour for 300 s.
+    assert_eq!(arrived.get("car"), Some(&50), "{arrived:?}");
+    assert_eq!(arrived.get("city_bus"), Some(&5), "{arrived:?}");
+    assert_eq!(
+        on_bus_lanes.into_iter().collect::<Vec<_>>(),
+        ["city_bus"],
+        "only the buses use the bus lanes"
+    );
+    assert!(random.ticks() > 0 && random.wait_stats().jam_resolutions == 0);
+}
+
+/// netconvert's network of `nodes` and `edges` (plain XML bodies) in `dir`,
+/// with `options`. None (skipped) where SUMO is not installed.
+fn netconvert(dir: &Path, name: &str, nodes: &str, edges: &str, options: &[&str]) -> Option<PathBuf> {
+    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
+    let (nod, edg) = (dir.join(format!("{name}.nod.xml")), dir.join(format!("{name}.edg.xml")));
+    std::fs::write(&nod, format!("<nodes>\n{nodes}</nodes>\n")).unwrap();
+    std::fs::write(&edg, format!("<edges>\n{edges}</edges>\n")).unwrap();
+    let net = dir.join(format!("{name}.net.xml"));
+    let status = Command::new(Path::new(&python).with_file_name("netconvert"))
+        .arg("-n")
+        .arg(&nod)
+        .arg("-e")
+        .arg(&edg)
+        .arg("-o")
+        .arg(&net)
+        .args(["--no-turnarounds", "--no-warnings"])
+        .args(options)
+        .stdout(std::process::Stdio::null())
+        .status()
+        .unwrap();
+    assert!(status.success(), "netconvert failed on {name}");
+    Some(net)
+}
+
+/// A four-way priority junction with all four approaches queued: 250
+/// vehicles an hour per arm (a third each straight, left and right) for ten
+/// minutes. Every vehicle gets through, none overlaps another and none
+/// needs the jam timeout.
+#[test]
+fn a_priority_junction_with_every_approach_queued_lets_everybody_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(net) = netconvert_cross(dir.path(), "priority") else {
+        return;
+    };
+    let arms = [
+        ("W", "CE", "CN", "CS"),
+        ("E", "CW", "CS", "CN"),
+        ("N", "CS", "CE", "CW"),
+        ("S", "CN", "CW", "CE"),
+    ];
+    let mut flows = Vec::new();
+    for (arm, straight, left, right) in arms {
+        for (movement, out) in [("s", straight), ("l", left), ("r", right)] {
+            flows.push((format!("{arm}{movement}"), format!("{arm}C {out}"), 84));
+        }
+    }
+    let (inserted, arrived, w) = run_flows(&net, &flows, "priority junction");
+    assert!(inserted >= 160, "the demand: {inserted}");
+    assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+}
+
+/// A lane drop: two lanes narrow to one (a zipper merge), 1,200 vehicles an
+/// hour on both lanes together. Every vehicle gets through, none overlaps
+/// another and none needs the jam timeout.
+#[test]
+fn a_lane_drop_merges_both_lanes_without_a_jam() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(net) = netconvert(
+        dir.path(),
+        "lane_drop",
+        r#"  <node id="A" x="-400" y="0"/><node id="M" x="0" y="0" type="zipper"/><node id="B" x="400" y="0"/>
+"#,
+        r#"  <edge id="AM" from="A" to="M" numLanes="2" speed="13.89"/>
+  <edge id="MB" from="M" to="B" numLanes="1" speed="13.89"/>
+"#,
+        &[],
+    ) else {
+        return;
+    };
+    let flows = [("through".to_string(), "AM MB".to_string(), 1200)];
+    let (inserted, arrived, w) = run_flows(&net, &flows, "lane drop");
+    assert_eq!(inserted, 200, "the demand");
+    assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+}
+
+/// A two-lane roundabout (radius 30 m) with four arms, every entry queued:
+/// 300 vehicles an hour per arm, a third each to the next three exits.
+/// Every vehicle gets through, none overlaps another and none needs the jam
+/// timeout.
+#[test]
+fn a_two_lane_roundabout_with_every_entry_queued_lets_everybody_through() {
+    let dir = tempfile::tempdir().unwrap();
+    let ring = [("rN", 0, 30), ("rW", -30, 0), ("rS", 0, -30), ("rE", 30, 0)];
+    let arms = [("N", 0, 300), ("W", -300, 0), ("S", 0, -300), ("E", 300, 0)];
+    let mut nodes = String::new();
+    for (id, x, y) in ring.iter().chain(arms.iter()) {
+        nodes += &format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"priority\"/>\n");
+    }
+    let mut edges = String::new();
+    // Counter-clockwise, as traffic driving on the right goes round.
+    for k in 0..4 {
+        let (from, to) = (ring[k].0, ring[(k + 1) % 4].0);
+        edges += &format!(
+            "  <edge id=\"{from}_{to}\" from=\"{from}\" to=\"{to}\" numLanes=\"2\" speed=\"8.33\" priority=\"3\"/>\n"
+        );
+    }
+    for ((arm, ..), (node, ..)) in arms.iter().zip(ring.iter()) {
+        edges += &format!(
+            "  <edge id=\"{arm}in\" from=\"{arm}\" to=\"{node}\" numLanes=\"2\" speed=\"13.89\" priority=\"1\"/>\n  <edge id=\"{arm}out\" from=\"{node}\" to=\"{arm}\" numLanes=\"1\" speed=\"13.89\" priority=\"1\"/>\n"
+        );
+    }
+    let Some(net) = netconvert(dir.path(), "roundabout", &nodes, &edges, &["--roundabouts.guess"]) else {
+        return;
+    };
+    let ring_edge = |k: usize| format!("{}_{}", ring[k % 4].0, ring[(k + 1) % 4].0);
+    let mut flows = Vec::new();
+    for (k, (arm, ..)) in arms.iter().enumerate() {
+        for exits in 1..=3 {
+            let mut route = vec![format!("{arm}in")];
+            route.extend((0..exits).map(|j| ring_edge(k + j)));
+            route.push(format!("{}out", arms[(k + exits) % 4].0));
+            flows.push((format!("{arm}{exits}"), route.join(" "), 100));
+        }
+    }
+    let (inserted, arrived, w) = run_flows(&net, &flows, "two-lane roundabout");
+    assert_eq!(inserted, 204, "the demand");
+    assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+}

@@ -139,6 +139,7 @@ fn lane(name: String, waypoints: Vec<Point>, speed_limit: f64) -> LaneDef {
         stop_line: None,
         traffic_light: None,
         right_of_way: Vec::new(),
+        vehicle_classes: Vec::new(),
     }
 }
 

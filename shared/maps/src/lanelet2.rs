@@ -266,6 +266,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
                 stop_line: None,
                 traffic_light: None,
                 right_of_way: Vec::new(),
+                vehicle_classes: Vec::new(),
             }
         })
         .collect();

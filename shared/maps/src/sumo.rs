@@ -78,10 +78,10 @@ pub fn import_with_programs(
             _ => {}
         }
         for lane in edge.children().filter(|n| n.has_tag_name("lane")) {
-            if !allows_cars(lane) {
+            let Some(vehicle_classes) = motor_permissions(lane) else {
                 skipped_pedestrian += 1;
                 continue;
-            }
+            };
             let id = attr(&doc, lane, "id")?.to_string();
             let waypoints = shape(&doc, lane)?;
             index.insert(id.clone(), lanes.len());
@@ -101,12 +101,13 @@ pub fn import_with_programs(
                 stop_line: None,
                 traffic_light: None,
                 right_of_way: Vec::new(),
+                vehicle_classes,
             });
         }
     }
     if skipped_pedestrian > 0 {
         warnings.push(format!(
-            "{skipped_pedestrian} lane(s) closed to cars (sidewalks, bike lanes) not imported"
+            "{skipped_pedestrian} lane(s) closed to motor vehicles (sidewalks, bike lanes, rails) not imported"
         ));
     }
     if walking_areas > 0 {
@@ -266,18 +267,54 @@ fn band(line: &[Point], width: f64) -> Vec<Point> {
     polygon
 }
 
-fn allows_cars(lane: Node) -> bool {
-    if let Some(allow) = lane.attribute("allow") {
-        return allow
-            .split_whitespace()
-            .any(|c| matches!(c, "passenger" | "all" | "private"));
+/// SUMO's vehicle classes of motor vehicles on roads: the ones simulated.
+const MOTOR_CLASSES: [&str; 18] = [
+    "private",
+    "emergency",
+    "authority",
+    "army",
+    "vip",
+    "passenger",
+    "hov",
+    "taxi",
+    "bus",
+    "coach",
+    "delivery",
+    "truck",
+    "trailer",
+    "motorcycle",
+    "moped",
+    "evehicle",
+    "custom1",
+    "custom2",
+];
+
+/// The motor vehicle classes a lane allows, from SUMO's `allow` or
+/// `disallow`: empty when it allows them all, None when it allows none of them
+/// (a sidewalk, a bike lane, rails).
+fn motor_permissions(lane: Node) -> Option<Vec<String>> {
+    let listed = |name: &str| {
+        lane.attribute(name)
+            .map(|a| a.split_whitespace().collect::<Vec<_>>())
+    };
+    let allowed: Vec<&str> = match (listed("allow"), listed("disallow")) {
+        (Some(allow), _) if allow.contains(&"all") => return Some(Vec::new()),
+        (Some(allow), _) => MOTOR_CLASSES
+            .into_iter()
+            .filter(|c| allow.contains(c))
+            .collect(),
+        (None, Some(disallow)) if disallow.contains(&"all") => Vec::new(),
+        (None, Some(disallow)) => MOTOR_CLASSES
+            .into_iter()
+            .filter(|c| !disallow.contains(c))
+            .collect(),
+        (None, None) => return Some(Vec::new()),
+    };
+    match allowed.len() {
+        0 => None,
+        n if n == MOTOR_CLASSES.len() => Some(Vec::new()),
+        _ => Some(allowed.into_iter().map(str::to_string).collect()),
     }
-    if let Some(disallow) = lane.attribute("disallow") {
-        return !disallow
-            .split_whitespace()
-            .any(|c| matches!(c, "passenger" | "all"));
-    }
-    true
 }
 
 /// `x,y[,z] x,y[,z] ...`, consecutive duplicates dropped.

@@ -35,6 +35,8 @@ struct Network<'m> {
     edge_lanes: HashMap<&'m str, Vec<&'m str>>,
     next: HashMap<&'m str, &'m [String]>,
     length: HashMap<&'m str, f64>,
+    /// The classes each lane allows; empty: all.
+    classes: HashMap<&'m str, &'m [String]>,
     /// Lane changes the chosen lane routes need on the way.
     shifts: std::cell::Cell<usize>,
 }
@@ -69,8 +71,20 @@ impl<'m> Network<'m> {
                 .map(|l| (l.name.as_str(), l.next.as_slice()))
                 .collect(),
             length,
+            classes: map
+                .lanes
+                .iter()
+                .map(|l| (l.name.as_str(), l.vehicle_classes.as_slice()))
+                .collect(),
             shifts: std::cell::Cell::new(0),
         }
+    }
+
+    /// May vehicles of `class` drive on `lane`?
+    fn allows(&self, lane: &str, class: &str) -> bool {
+        self.classes
+            .get(lane)
+            .is_none_or(|c| c.is_empty() || c.iter().any(|a| a == class))
     }
 
     /// The cost of a lane change along `lane`: one, and far more where the
@@ -84,14 +98,16 @@ impl<'m> Network<'m> {
     /// lanes between them included), or None when the edges are not connected.
     /// Of all lane routes it takes one with the fewest lane changes, placed
     /// where there is room for them (SUMO's `departLane="best"` and its
-    /// strategic lane choice), the rightmost among equals.
-    fn lane_route(&self, edges: &[&str]) -> Option<Vec<String>> {
+    /// strategic lane choice), the rightmost among equals, on lanes that
+    /// allow `class`.
+    fn lane_route(&self, edges: &[&str], class: &str) -> Option<Vec<String>> {
         let mut memo: HashMap<(&str, usize), Continuation> = HashMap::new();
         let best = self
             .edge_lanes
             .get(edges.first()?)?
             .iter()
-            .filter_map(|start| self.extend(start, edges, 1, &mut memo))
+            .filter(|start| self.allows(start, class))
+            .filter_map(|start| self.extend(start, edges, 1, class, &mut memo))
             .min_by(|a, b| a.0.total_cmp(&b.0))?;
         // Where two listed lanes are not linked, the vehicle changes lanes.
         let changes = best
@@ -114,6 +130,7 @@ impl<'m> Network<'m> {
         lane: &'a str,
         edges: &[&str],
         k: usize,
+        class: &str,
         memo: &mut HashMap<(&'a str, usize), Continuation>,
     ) -> Continuation {
         if k == edges.len() {
@@ -130,6 +147,9 @@ impl<'m> Network<'m> {
             for path in frontier {
                 let last = *path.last().expect("a path is never empty");
                 for n in self.next.get(last).copied().unwrap_or(&[]) {
+                    if !self.allows(n, class) {
+                        continue;
+                    }
                     let mut p = path.clone();
                     p.push(n.as_str());
                     if n.starts_with(':') {
@@ -146,10 +166,15 @@ impl<'m> Network<'m> {
                         .get(edges[k])
                         .map(Vec::as_slice)
                         .unwrap_or(&[]);
-                    let candidates = std::iter::once(n.as_str())
-                        .chain(siblings.iter().copied().filter(|s| *s != n.as_str()));
+                    let candidates = std::iter::once(n.as_str()).chain(
+                        siblings
+                            .iter()
+                            .copied()
+                            .filter(|s| *s != n.as_str() && self.allows(s, class)),
+                    );
                     for (i, entry) in candidates.enumerate() {
-                        let Some((cost, rest)) = self.extend(entry, edges, k + 1, memo) else {
+                        let Some((cost, rest)) = self.extend(entry, edges, k + 1, class, memo)
+                        else {
                             continue;
                         };
                         let cost = cost + if i > 0 { self.shift_cost(n) } else { 0.0 };
@@ -294,7 +319,7 @@ impl<'m> DemandBuilder<'m> {
         self.add_types(doc)?;
         let root = doc.root_element();
         let mut routes: HashMap<&str, Vec<&str>> = HashMap::new();
-        let mut lane_routes: HashMap<Vec<&str>, Option<Vec<String>>> = HashMap::new();
+        let mut lane_routes: HashMap<(Vec<&str>, String), Option<Vec<String>>> = HashMap::new();
         for n in root.children().filter(|n| n.is_element()) {
             let tag = n.tag_name().name();
             match tag {
@@ -327,16 +352,6 @@ impl<'m> DemandBuilder<'m> {
                     continue;
                 }
             };
-            let net = &self.net;
-            let lanes = lane_routes
-                .entry(edges.clone())
-                .or_insert_with(|| net.lane_route(&edges))
-                .clone();
-            let Some(route) = lanes else {
-                self.unconnected
-                    .push(n.attribute("id").unwrap_or("?").to_string());
-                continue;
-            };
             let vehicle_type = match n.attribute("type") {
                 Some(t) if self.types.contains_key(t) => Some(t.to_string()),
                 Some(t) => {
@@ -353,19 +368,40 @@ impl<'m> DemandBuilder<'m> {
                 ));
                 continue;
             };
+            let mut connected = true;
             for (k, time) in times.into_iter().enumerate() {
                 if time < self.begin || time >= self.end {
                     continue;
                 }
                 let prefab = self.kind_for(vehicle_type.as_deref(), id, k);
+                let class = self.class_of(&prefab);
+                let net = &self.net;
+                let route = lane_routes
+                    .entry((edges.clone(), class.clone()))
+                    .or_insert_with(|| net.lane_route(&edges, &class));
+                let Some(route) = route else {
+                    connected = false;
+                    continue;
+                };
                 self.departures.push(DepartureDef {
                     time: time - self.begin,
                     route: route.clone(),
                     prefab,
                 });
             }
+            if !connected {
+                self.unconnected.push(id.to_string());
+            }
         }
         Ok(())
+    }
+
+    /// The vehicle class of a kind this builder named.
+    fn class_of(&self, kind: &str) -> String {
+        match self.types.get(kind) {
+            Some(VehicleType::Kind(k)) => k.vehicle_class().to_string(),
+            _ => trafficmesh_model::catalog::DEFAULT_VEHICLE_CLASS.to_string(),
+        }
     }
 
     /// The kind of one vehicle (the `k`-th of element `id`): its type, drawn
@@ -468,7 +504,17 @@ fn vehicle_type(doc: &roxmltree::Document, n: Node) -> Result<(String, VehicleKi
     let bus = n.attribute("vClass") == Some("bus");
     let length = optional(doc, n, "length")?.unwrap_or(if bus { 12.0 } else { DEFAULT_LENGTH });
     let width = optional(doc, n, "width")?.unwrap_or(if bus { 2.5 } else { DEFAULT_WIDTH });
-    let defaults = IdmParams::default();
+    let defaults = if bus {
+        // SUMO's defaults for its bus class.
+        IdmParams {
+            accel: 1.2,
+            decel: 4.0,
+            max_speed: 85.0 / 3.6,
+            ..IdmParams::default()
+        }
+    } else {
+        IdmParams::default()
+    };
     let idm = IdmParams {
         accel: optional(doc, n, "accel")?.unwrap_or(defaults.accel),
         decel: optional(doc, n, "decel")?.unwrap_or(defaults.decel),
@@ -487,6 +533,7 @@ fn vehicle_type(doc: &roxmltree::Document, n: Node) -> Result<(String, VehicleKi
         .map_err(|e| ImportError::at(doc, n, &format!("vType '{id}': {e}")))?;
     let mut kind = VehicleKind::sized(&id, length, width);
     kind.idm = Some(idm);
+    kind.class = n.attribute("vClass").map(str::to_string);
     Ok((id, kind))
 }
 

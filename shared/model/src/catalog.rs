@@ -19,6 +19,20 @@ pub struct VehicleKind {
     /// accel, decel, minGap, tau and maxSpeed), used whenever it drives by it.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub idm: Option<crate::IdmParams>,
+    /// The vehicle class (SUMO's vClass) that lane permissions are checked
+    /// against; None: `passenger`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub class: Option<String>,
+}
+
+/// The class of a kind without one of its own.
+pub const DEFAULT_VEHICLE_CLASS: &str = "passenger";
+
+impl VehicleKind {
+    /// The vehicle class lane permissions are checked against.
+    pub fn vehicle_class(&self) -> &str {
+        self.class.as_deref().unwrap_or(DEFAULT_VEHICLE_CLASS)
+    }
 }
 
 impl VehicleKind {
@@ -40,6 +54,7 @@ impl VehicleKind {
             width,
             driver: None,
             idm: None,
+            class: None,
         }
     }
 }
@@ -68,6 +83,7 @@ pub fn builtin_kind(name: &str) -> Option<VehicleKind> {
             width: 2.0 * ext_x,
             driver: None,
             idm: None,
+            class: None,
         },
     )
 }

@@ -77,6 +77,10 @@ pub struct LaneDef {
     /// Lanes this lane must yield to (the non-priority side's list).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub right_of_way: Vec<String>,
+    /// The vehicle classes allowed on this lane (SUMO's vClass names, e.g.
+    /// `bus`); empty: every class.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub vehicle_classes: Vec<String>,
 }
 
 impl LaneDef {

@@ -5,7 +5,7 @@
 //! lane's end until it finds one; meanwhile those coming up behind on the other
 //! lane leave it room (the lane index shows it there as a ghost).
 
-use trafficmesh_model::NpcVehicleConfig;
+use trafficmesh_model::{DriverModel, NpcVehicleConfig};
 
 use crate::decision::{MIN_FRONT_VEHICLE_DISTANCE, StopDistances};
 use crate::lane_index::LaneIndex;
@@ -85,6 +85,7 @@ impl Moved {
 /// Vehicle `i`'s lane change this tick, if it needs one and has room (the
 /// index is this tick's).
 pub fn plan(
+    net: &LaneNetwork,
     index: &LaneIndex,
     vehicles: &[Vehicle],
     i: usize,
@@ -96,7 +97,7 @@ pub fn plan(
         return None;
     }
     let target = v.lane_change?;
-    let blockers = blockers(index, v, target, config);
+    let blockers = blockers(net, index, v, target, config);
     match blockers[..] {
         [] => Some(Change {
             vehicle: i,
@@ -110,7 +111,7 @@ pub fn plan(
             let theirs = o.lane_change.filter(|&t| t == v.path[0])?;
             (alongside
                 && o.rear_s() >= 0.0
-                && blockers_except(index, o, theirs, config, i as u32).is_empty())
+                && blockers_except(index, o, theirs, Gaps::of(net, o, config), i as u32).is_empty())
             .then_some(Change {
                 vehicle: i,
                 target,
@@ -121,44 +122,74 @@ pub fn plan(
     }
 }
 
+/// What a gap beside must hold for a vehicle to move into it: the distance
+/// kept at standstill and the Decision step's stop distances.
+#[derive(Clone, Copy)]
+pub struct Gaps<'c> {
+    standstill: f64,
+    config: &'c NpcVehicleConfig,
+}
+
+impl<'c> Gaps<'c> {
+    /// At standstill a realistic driver keeps its own minimum gap (it closes
+    /// to it from above, so a little less is room enough), the reference's
+    /// NPCs their minimum front distance.
+    pub fn of(net: &LaneNetwork, v: &Vehicle, config: &'c NpcVehicleConfig) -> Self {
+        let standstill = match crate::control::driver_model(net, v, config) {
+            DriverModel::Awsim => MIN_FRONT_VEHICLE_DISTANCE,
+            DriverModel::Realistic(idm) => 0.8 * idm.min_gap,
+        };
+        Gaps { standstill, config }
+    }
+
+    /// The room needed ahead of the one behind, closing in at `closing` m/s:
+    /// no more than a sudden stop (never an absolute one) keeps the standstill gap.
+    fn needed(&self, closing: f64) -> f64 {
+        self.standstill + StopDistances::at(closing.max(0.0), self.config).sudden
+    }
+}
+
 /// The bodies on `target` too close to a body of `v`'s length at `v.s`: a gap
 /// is enough when neither the vehicle nor its new follower, closing in at the
-/// difference of their speeds, would need more than a sudden stop (never an
-/// absolute one) to keep the Decision step's distance to the body ahead.
-fn blockers(index: &LaneIndex, v: &Vehicle, target: LaneId, config: &NpcVehicleConfig) -> Vec<u32> {
-    blockers_except(index, v, target, config, u32::MAX)
+/// difference of their speeds, would need more than a sudden stop to keep
+/// its distance at standstill to the body ahead.
+pub fn blockers(
+    net: &LaneNetwork,
+    index: &LaneIndex,
+    v: &Vehicle,
+    target: LaneId,
+    config: &NpcVehicleConfig,
+) -> Vec<u32> {
+    blockers_except(index, v, target, Gaps::of(net, v, config), u32::MAX)
 }
 
 fn blockers_except(
     index: &LaneIndex,
     v: &Vehicle,
     target: LaneId,
-    config: &NpcVehicleConfig,
+    gaps: Gaps,
     except: u32,
 ) -> Vec<u32> {
     index
         .on_lane(target)
         .iter()
         .filter(|o| !o.ghost && o.vehicle != except)
-        .filter(|o| !clear(v, o.rear, o.front, o.speed, config))
+        .filter(|o| !clear(v, o.rear, o.front, o.speed, gaps))
         .map(|o| o.vehicle)
         .collect()
 }
 
-fn clear(v: &Vehicle, o_rear: f64, o_front: f64, o_speed: f64, config: &NpcVehicleConfig) -> bool {
-    // The speed at which the one behind closes in.
-    let needed = |closing: f64| {
-        MIN_FRONT_VEHICLE_DISTANCE + StopDistances::at(closing.max(0.0), config).sudden
-    };
-    o_rear - v.s >= needed(v.speed - o_speed) || v.rear_s() - o_front >= needed(o_speed - v.speed)
+fn clear(v: &Vehicle, o_rear: f64, o_front: f64, o_speed: f64, gaps: Gaps) -> bool {
+    o_rear - v.s >= gaps.needed(v.speed - o_speed)
+        || v.rear_s() - o_front >= gaps.needed(o_speed - v.speed)
 }
 
 /// Clear of the bodies already moved onto `target` this tick.
-pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, config: &NpcVehicleConfig) -> bool {
+pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, gaps: Gaps) -> bool {
     moved
         .iter()
         .filter(|m| m.lane == target)
-        .all(|m| clear(v, m.rear, m.front, m.speed, config))
+        .all(|m| clear(v, m.rear, m.front, m.speed, gaps))
 }
 
 /// Moves the vehicle onto `target` at the same arc length.

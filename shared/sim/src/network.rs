@@ -44,6 +44,8 @@ pub struct Lane {
     pub width: f64,
     /// Arc length of the stop line along this lane.
     pub stop_s: Option<f64>,
+    /// The vehicle classes allowed here; empty: all.
+    pub vehicle_classes: Vec<String>,
 }
 
 impl Lane {
@@ -176,6 +178,7 @@ impl LaneNetwork {
                     junction: None,
                     conflicts: Vec::new(),
                     road_conflicts: false,
+                    vehicle_classes: def.vehicle_classes.clone(),
                 }
             })
             .collect();
@@ -322,6 +325,15 @@ impl LaneNetwork {
 
     pub fn lane(&self, id: LaneId) -> &Lane {
         &self.lanes[id as usize]
+    }
+
+    /// May vehicles of kind `kind` drive on `lane`?
+    pub fn allows(&self, lane: LaneId, kind: usize) -> bool {
+        let classes = &self.lane(lane).vehicle_classes;
+        classes.is_empty() || {
+            let class = self.kinds[kind].vehicle_class();
+            classes.iter().any(|c| c == class)
+        }
     }
 
     pub fn light_group(&self, name: &str) -> Option<usize> {

@@ -124,7 +124,19 @@ pub fn extend_path(
         return Err(DeadEnd);
     }
     let last = *v.path.last().expect("path is never empty");
-    let options = &net.lane(last).next;
+    let all = &net.lane(last).next;
+    // Lanes closed to the vehicle's class (bus lanes) are no option.
+    let allowed: Vec<LaneId>;
+    let options = if all.iter().all(|&n| net.allows(n, v.kind)) {
+        all
+    } else {
+        allowed = all
+            .iter()
+            .copied()
+            .filter(|&n| net.allows(n, v.kind))
+            .collect();
+        &allowed
+    };
     match options.len() {
         0 => Err(DeadEnd),
         1 => {

@@ -41,7 +41,7 @@ impl TrafficSimulator for RandomTrafficSimulator {
         self.enabled && !self.limit.reached() && !self.lanes.is_empty() && !self.kinds.is_empty()
     }
 
-    fn propose(&mut self, _net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
+    fn propose(&mut self, net: &LaneNetwork, _time: f64, out: &mut Vec<SpawnProposal>) {
         for slot in 0..self.pending.len() {
             let kind = match self.pending[slot] {
                 Some(k) => k,
@@ -52,6 +52,9 @@ impl TrafficSimulator for RandomTrafficSimulator {
                 }
             };
             let lane = self.lanes[self.rng.below(self.lanes.len())];
+            if !net.allows(lane, kind) {
+                continue;
+            }
             out.push(SpawnProposal {
                 lane,
                 kind,

@@ -127,11 +127,11 @@ impl World {
     /// vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
         let motion = self.config.vehicle;
-        let (index, vehicles) = (&self.index, &self.vehicles);
+        let (net, index, vehicles) = (&self.net, &self.index, &self.vehicles);
         let mut candidates: Vec<lane_change::Change> = index
             .lane_changers()
             .iter()
-            .filter_map(|&i| lane_change::plan(index, vehicles, i as usize, &motion))
+            .filter_map(|&i| lane_change::plan(net, index, vehicles, i as usize, &motion))
             .collect();
         if candidates.is_empty() {
             return false;
@@ -145,7 +145,8 @@ impl World {
                 continue;
             }
             let v = &self.vehicles[c.vehicle];
-            if !lane_change::clear_of(&moved, v, c.target, &motion) {
+            let gaps = lane_change::Gaps::of(&self.net, v, &motion);
+            if !lane_change::clear_of(&moved, v, c.target, gaps) {
                 continue;
             }
             moved.push(lane_change::Moved::of(v, c.target));
