@@ -1133,7 +1133,7 @@ fn netconvert(dir: &Path, name: &str, nodes: &str, edges: &str, options: &[&str]
     Some(net)
 }
 
-/// A four-way priority junction with all four approaches queued: 250
+/// A four-way priority junction with all four approaches queued: 300
 /// vehicles an hour per arm (a third each straight, left and right) for ten
 /// minutes. Every vehicle gets through, none overlaps another and none
 /// needs the jam timeout.
@@ -1152,11 +1152,11 @@ fn a_priority_junction_with_every_approach_queued_lets_everybody_through() {
     let mut flows = Vec::new();
     for (arm, straight, left, right) in arms {
         for (movement, out) in [("s", straight), ("l", left), ("r", right)] {
-            flows.push((format!("{arm}{movement}"), format!("{arm}C {out}"), 84));
+            flows.push((format!("{arm}{movement}"), format!("{arm}C {out}"), 100));
         }
     }
     let (inserted, arrived, w) = run_flows(&net, &flows, "priority junction");
-    assert!(inserted >= 160, "the demand: {inserted}");
+    assert_eq!(inserted, 204, "the demand");
     assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
     assert_eq!(w.wait_stats().jam_resolutions, 0);
 }
