@@ -859,8 +859,7 @@ fn vs_sumo(args: &[&std::ffi::OsStr]) -> Option<serde_json::Value> {
 /// `CX` out; the W-E road has priority where the type uses it. None (skipped)
 /// where SUMO is not installed.
 fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
-    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
-    let mut nodes = String::from("<nodes>\n");
+    let mut nodes = String::new();
     for (id, x, y) in [
         ("C", 0, 0),
         ("N", 0, 300),
@@ -870,9 +869,7 @@ fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
     ] {
         nodes += &format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"{node_type}\"/>\n");
     }
-    nodes += "</nodes>\n";
-    std::fs::write(dir.join("j.nod.xml"), nodes).unwrap();
-    let mut edges = String::from("<edges>\n");
+    let mut edges = String::new();
     for arm in ["N", "S", "E", "W"] {
         let priority = if matches!(arm, "E" | "W") { 2 } else { 1 };
         for (from, to) in [(arm, "C"), ("C", arm)] {
@@ -881,22 +878,7 @@ fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
             );
         }
     }
-    edges += "</edges>\n";
-    std::fs::write(dir.join("j.edg.xml"), edges).unwrap();
-    let net = dir.join(format!("{node_type}.net.xml"));
-    let status = Command::new(Path::new(&python).with_file_name("netconvert"))
-        .arg("-n")
-        .arg(dir.join("j.nod.xml"))
-        .arg("-e")
-        .arg(dir.join("j.edg.xml"))
-        .arg("-o")
-        .arg(&net)
-        .args(["--no-turnarounds", "--no-warnings"])
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success(), "netconvert failed");
-    Some(net)
+    netconvert(dir, node_type, &nodes, &edges, &[])
 }
 
 /// Runs `flows` (id, edges, vehicles an hour, from 0 to 600 s) on `net` with
@@ -1002,42 +984,19 @@ fn a_left_turn_facing_a_steady_opposing_stream_gets_through() {
 /// `allow="bus"`), made by netconvert. None (skipped) where SUMO is not
 /// installed.
 fn netconvert_bus_lane_road(dir: &Path) -> Option<PathBuf> {
-    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
-    std::fs::write(
-        dir.join("b.nod.xml"),
-        r#"<nodes>
-  <node id="W" x="-300" y="0"/><node id="C" x="0" y="0" type="priority"/><node id="E" x="300" y="0"/>
-</nodes>"#,
-    )
-    .unwrap();
     let edge = |id: &str, from: &str, to: &str| {
         format!(
             "  <edge id=\"{id}\" from=\"{from}\" to=\"{to}\" numLanes=\"2\" speed=\"13.89\">\n    <lane index=\"0\" allow=\"bus\"/>\n  </edge>\n"
         )
     };
-    std::fs::write(
-        dir.join("b.edg.xml"),
-        format!(
-            "<edges>\n{}{}</edges>\n",
-            edge("WC", "W", "C"),
-            edge("CE", "C", "E")
-        ),
+    netconvert(
+        dir,
+        "bus_lane",
+        r#"  <node id="W" x="-300" y="0"/><node id="C" x="0" y="0" type="priority"/><node id="E" x="300" y="0"/>
+"#,
+        &format!("{}{}", edge("WC", "W", "C"), edge("CE", "C", "E")),
+        &[],
     )
-    .unwrap();
-    let net = dir.join("bus_lane.net.xml");
-    let status = Command::new(Path::new(&python).with_file_name("netconvert"))
-        .arg("-n")
-        .arg(dir.join("b.nod.xml"))
-        .arg("-e")
-        .arg(dir.join("b.edg.xml"))
-        .arg("-o")
-        .arg(&net)
-        .args(["--no-turnarounds", "--no-warnings"])
-        .stdout(std::process::Stdio::null())
-        .status()
-        .unwrap();
-    assert!(status.success(), "netconvert failed");
-    Some(net)
 }
 
 /// Bus lanes are closed to cars and open to buses: imported with their
@@ -1111,9 +1070,18 @@ fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
 
 /// netconvert's network of `nodes` and `edges` (plain XML bodies) in `dir`,
 /// with `options`. None (skipped) where SUMO is not installed.
-fn netconvert(dir: &Path, name: &str, nodes: &str, edges: &str, options: &[&str]) -> Option<PathBuf> {
+fn netconvert(
+    dir: &Path,
+    name: &str,
+    nodes: &str,
+    edges: &str,
+    options: &[&str],
+) -> Option<PathBuf> {
     let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
-    let (nod, edg) = (dir.join(format!("{name}.nod.xml")), dir.join(format!("{name}.edg.xml")));
+    let (nod, edg) = (
+        dir.join(format!("{name}.nod.xml")),
+        dir.join(format!("{name}.edg.xml")),
+    );
     std::fs::write(&nod, format!("<nodes>\n{nodes}</nodes>\n")).unwrap();
     std::fs::write(&edg, format!("<edges>\n{edges}</edges>\n")).unwrap();
     let net = dir.join(format!("{name}.net.xml"));
@@ -1212,7 +1180,13 @@ fn a_two_lane_roundabout_with_every_entry_queued_lets_everybody_through() {
             "  <edge id=\"{arm}in\" from=\"{arm}\" to=\"{node}\" numLanes=\"2\" speed=\"13.89\" priority=\"1\"/>\n  <edge id=\"{arm}out\" from=\"{node}\" to=\"{arm}\" numLanes=\"1\" speed=\"13.89\" priority=\"1\"/>\n"
         );
     }
-    let Some(net) = netconvert(dir.path(), "roundabout", &nodes, &edges, &["--roundabouts.guess"]) else {
+    let Some(net) = netconvert(
+        dir.path(),
+        "roundabout",
+        &nodes,
+        &edges,
+        &["--roundabouts.guess"],
+    ) else {
         return;
     };
     let ring_edge = |k: usize| format!("{}_{}", ring[k % 4].0, ring[(k + 1) % 4].0);
