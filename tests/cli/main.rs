@@ -341,3 +341,78 @@ fn sim_json_reports_insertion_arrival_waiting_and_jams() {
         "a native map runs the reference's model"
     );
 }
+
+/// The README stays the front door: short, opening with the command that
+/// runs the cluster and the very test command CI runs, naming only
+/// subcommands the binary has and docs files that exist.
+#[test]
+fn the_readme_is_short_and_its_commands_and_links_exist() {
+    let readme = std::fs::read_to_string(repo_file("README.md")).unwrap();
+    let lines = readme.lines().count();
+    assert!(
+        lines < 250,
+        "README.md has {lines} lines; reference belongs in docs/"
+    );
+
+    let opening: Vec<&str> = readme
+        .split("```")
+        .nth(1)
+        .expect("the README opens with a code block")
+        .lines()
+        .filter(|l| !l.trim_start().starts_with('#') && !l.trim().is_empty())
+        .skip(1)
+        .collect();
+    assert!(
+        opening
+            .first()
+            .is_some_and(|l| l.contains("trafficmesh up")),
+        "the first command runs the cluster: {opening:?}"
+    );
+    let test_command = opening
+        .get(1)
+        .expect("a second command runs the tests")
+        .trim();
+    let ci = std::fs::read_to_string(repo_file(".ci/run")).unwrap();
+    let ci_last = ci
+        .lines()
+        .rev()
+        .find(|l| !l.trim().is_empty())
+        .unwrap()
+        .trim();
+    assert_eq!(
+        test_command, ci_last,
+        "CI runs exactly the README's test command"
+    );
+
+    let mut subcommands: Vec<&str> = readme
+        .split("trafficmesh ")
+        .skip(1)
+        .filter_map(|rest| {
+            rest.split(|c: char| !c.is_ascii_lowercase() && c != '-')
+                .next()
+        })
+        .filter(|w| !w.is_empty() && *w != "simulates")
+        .collect();
+    subcommands.sort();
+    subcommands.dedup();
+    assert!(subcommands.contains(&"sim") && subcommands.contains(&"up"));
+    for sub in subcommands {
+        let out = trafficmesh(&[sub, "--help"]);
+        assert!(
+            out.status.success(),
+            "the README names `trafficmesh {sub}`, which the binary does not have: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    for link in readme.split("](").skip(1) {
+        let target = link.split(')').next().unwrap();
+        if target.starts_with("http") || target.starts_with('#') {
+            continue;
+        }
+        let path = target.split('#').next().unwrap();
+        assert!(
+            repo_file(path).exists(),
+            "the README links to {path}, which does not exist"
+        );
+    }
+}
