@@ -1001,7 +1001,8 @@ fn netconvert_bus_lane_road(dir: &Path) -> Option<PathBuf> {
 
 /// Bus lanes are closed to cars and open to buses: imported with their
 /// classes, cars of a route file and of random traffic keep off them, buses
-/// (vClass bus) run on them as vehicles of their own kind.
+/// (vClass bus) run on them as vehicles of their own kind, and so may SUMO's
+/// class `ignoring` (the rightmost lane of a route with no lane change).
 #[test]
 fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
     let dir = tempfile::tempdir().unwrap();
@@ -1019,6 +1020,8 @@ fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
         r#"<routes>
     <vType id="car" length="4.5"/>
     <vType id="city_bus" vClass="bus"/>
+    <vType id="anything" vClass="ignoring"/>
+    <flow id="anything" type="anything" begin="0" end="300" vehsPerHour="60"><route edges="WC CE"/></flow>
     <flow id="cars" type="car" begin="0" end="300" vehsPerHour="600"><route edges="WC CE"/></flow>
     <flow id="buses" type="city_bus" begin="0" end="300" vehsPerHour="60"><route edges="WC CE"/></flow>
 </routes>"#,
@@ -1060,10 +1063,11 @@ fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
     // 600 and 60 an hour for 300 s.
     assert_eq!(arrived.get("car"), Some(&50), "{arrived:?}");
     assert_eq!(arrived.get("city_bus"), Some(&5), "{arrived:?}");
+    assert_eq!(arrived.get("anything"), Some(&5), "{arrived:?}");
     assert_eq!(
         on_bus_lanes.into_iter().collect::<Vec<_>>(),
-        ["city_bus"],
-        "only the buses use the bus lanes"
+        ["anything", "city_bus"],
+        "only the buses and SUMO's class `ignoring` use the bus lanes"
     );
     assert!(random.ticks() > 0 && random.wait_stats().jam_resolutions == 0);
 }

@@ -84,7 +84,7 @@ impl<'m> Network<'m> {
     fn allows(&self, lane: &str, class: &str) -> bool {
         self.classes
             .get(lane)
-            .is_none_or(|c| c.is_empty() || c.iter().any(|a| a == class))
+            .is_none_or(|allowed| trafficmesh_model::catalog::class_allowed(allowed, class))
     }
 
     /// The cost of a lane change along `lane`: one, and far more where the

@@ -28,6 +28,14 @@ pub struct VehicleKind {
 /// The class of a kind without one of its own.
 pub const DEFAULT_VEHICLE_CLASS: &str = "passenger";
 
+/// SUMO's class that may drive on every lane, whatever it allows.
+pub const IGNORING_CLASS: &str = "ignoring";
+
+/// May a vehicle of `class` drive on a lane that allows `allowed` (empty: all)?
+pub fn class_allowed(allowed: &[String], class: &str) -> bool {
+    allowed.is_empty() || class == IGNORING_CLASS || allowed.iter().any(|a| a == class)
+}
+
 impl VehicleKind {
     /// The vehicle class lane permissions are checked against.
     pub fn vehicle_class(&self) -> &str {

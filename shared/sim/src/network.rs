@@ -330,10 +330,8 @@ impl LaneNetwork {
     /// May vehicles of kind `kind` drive on `lane`?
     pub fn allows(&self, lane: LaneId, kind: usize) -> bool {
         let classes = &self.lane(lane).vehicle_classes;
-        classes.is_empty() || {
-            let class = self.kinds[kind].vehicle_class();
-            classes.iter().any(|c| c == class)
-        }
+        classes.is_empty()
+            || trafficmesh_model::catalog::class_allowed(classes, self.kinds[kind].vehicle_class())
     }
 
     pub fn light_group(&self, name: &str) -> Option<usize> {
