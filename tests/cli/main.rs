@@ -416,3 +416,214 @@ fn the_readme_is_short_and_its_commands_and_links_exist() {
         );
     }
 }
+
+/// A cluster.toml in `dir` from the shipped one: `map` and `spawn_config`
+/// as given, the endpoint on `port`, no admin; `extra` appended.
+fn cluster_toml(dir: &Path, map: &Path, spawn_config: &Path, port: u16, extra: &str) -> PathBuf {
+    let shipped = std::fs::read_to_string(repo_file("configs/cluster.toml")).unwrap();
+    let mut text = String::new();
+    let mut section = String::new();
+    for line in shipped.lines() {
+        if line.starts_with('[') {
+            section = line.to_string();
+        }
+        let key = line.split('=').next().unwrap_or("").trim();
+        let line = match (section.as_str(), key) {
+            ("", "map") => format!("map = \"{}\"", map.display()),
+            ("", "endpoint") => format!("endpoint = \"tcp/127.0.0.1:{port}\""),
+            ("[spawner]", "spawn_config") => {
+                format!("spawn_config = \"{}\"", spawn_config.display())
+            }
+            ("[spawner]", "branch_csv") => {
+                format!("branch_csv = \"{}\"", dir.join("branches.csv").display())
+            }
+            ("[admin]", "enabled") => "enabled = false".into(),
+            _ => line.to_string(),
+        };
+        text += &line;
+        text.push('\n');
+    }
+    text += extra;
+    let path = dir.join("cluster.toml");
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+fn free_port() -> u16 {
+    std::net::TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// `trafficmesh up` with these arguments, stopped with SIGINT after `secs`
+/// unless it ends first: (exit code, stderr, whether it ended by itself).
+fn up_for(args: &[&std::ffi::OsStr], secs: f64) -> (Option<i32>, String, bool) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .arg("up")
+        .args(args)
+        .current_dir(repo_file(""))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let deadline = std::time::Instant::now() + std::time::Duration::from_secs_f64(secs);
+    let mut ended = true;
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+            ended = false;
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code(),
+        String::from_utf8_lossy(&out.stderr).to_string(),
+        ended,
+    )
+}
+
+/// `up` checks every service's configuration before it starts anything: a
+/// spawn config naming lanes its map lacks, or a setting a service would
+/// refuse, ends it at once with one message naming the file, the entry and
+/// the fix, and nothing started.
+#[test]
+fn up_refuses_a_bad_configuration_at_once_and_starts_nothing() {
+    let Some(net) = shared_cross_net() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let spawn = repo_file("configs/traffic_spawn.json");
+    let toml = cluster_toml(dir.path(), &net, &spawn, free_port(), "");
+    let (code, stderr, ended) = up_for(&["--config".as_ref(), toml.as_os_str()], 10.0);
+    assert!(ended, "up did not exit: {stderr}");
+    assert_eq!(code, Some(2), "{stderr}");
+    for needle in ["traffic_spawn.json", "unknown lane 'J0_0_in_N0'", "fix:"] {
+        assert!(stderr.contains(needle), "no '{needle}' in: {stderr}");
+    }
+    assert!(
+        !stderr.contains("started (pid"),
+        "a service was started: {stderr}"
+    );
+
+    let toml = cluster_toml(
+        dir.path(),
+        &repo_file("configs/maps/four_way.map.json"),
+        &spawn,
+        free_port(),
+        "",
+    );
+    let text = std::fs::read_to_string(&toml)
+        .unwrap()
+        .replace("per_minute = 2.0", "per_minute = -1");
+    std::fs::write(&toml, text).unwrap();
+    let (code, stderr, ended) = up_for(&["--config".as_ref(), toml.as_os_str()], 10.0);
+    assert!(ended && code == Some(2), "{code:?}: {stderr}");
+    assert!(
+        stderr.contains("pedestrians.per_minute must be a number >= 0, got -1"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("started (pid"),
+        "a service was started: {stderr}"
+    );
+}
+
+/// `up --map` with a map of one's own and the shipped spawn config (written
+/// for the sample map): the cluster starts with the map's own, empty, spawn
+/// config and says so; nothing exits or is restarted.
+#[test]
+fn up_with_a_map_of_ones_own_starts_with_an_empty_spawn_config() {
+    let Some(net) = shared_cross_net() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let spawn = dir.path().join("traffic_spawn.json");
+    std::fs::copy(repo_file("configs/traffic_spawn.json"), &spawn).unwrap();
+    let toml = cluster_toml(
+        dir.path(),
+        &repo_file("configs/maps/four_way.map.json"),
+        &spawn,
+        free_port(),
+        "",
+    );
+    let (code, stderr, ended) = up_for(
+        &[
+            "--config".as_ref(),
+            toml.as_os_str(),
+            "--map".as_ref(),
+            net.as_os_str(),
+        ],
+        6.0,
+    );
+    assert!(!ended, "up ended by itself ({code:?}): {stderr}");
+    assert!(
+        stderr.contains("is written for another map")
+            && stderr.contains(&format!(
+                "{}",
+                dir.path().join("traffic_spawn.cross.json").display()
+            )),
+        "{stderr}"
+    );
+    for service in ["stepper", "spawner", "lights", "crosswalks"] {
+        assert!(
+            stderr.contains(&format!("{service} started (pid")),
+            "{service} not started: {stderr}"
+        );
+    }
+    assert!(
+        !stderr.contains("exited") && !stderr.contains("restarting"),
+        "a service exited: {stderr}"
+    );
+}
+
+/// A service that exits with the configuration-error code (here: a Zenoh
+/// config file it cannot parse) is never restarted: `up` stops the cluster
+/// and says which service could not run.
+#[test]
+fn up_stops_the_cluster_when_a_service_cannot_run_with_its_configuration() {
+    let dir = tempfile::tempdir().unwrap();
+    let zenoh = dir.path().join("broken.json5");
+    std::fs::write(&zenoh, "{ this is not json5").unwrap();
+    let toml = cluster_toml(
+        dir.path(),
+        &repo_file("configs/maps/four_way.map.json"),
+        &repo_file("configs/traffic_spawn.json"),
+        free_port(),
+        "",
+    );
+    let text = std::fs::read_to_string(&toml).unwrap().replace(
+        "# zenoh_config = \"deploy/zenoh/client.json5\"",
+        &format!("zenoh_config = \"{}\"", zenoh.display()),
+    );
+    std::fs::write(&toml, text).unwrap();
+    let (code, stderr, ended) = up_for(&["--config".as_ref(), toml.as_os_str()], 20.0);
+    assert!(ended, "up kept running: {stderr}");
+    assert_eq!(code, Some(2), "{stderr}");
+    assert!(
+        stderr.contains("cannot run with the configuration given"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("restarting"),
+        "a service was restarted: {stderr}"
+    );
+}
+
+/// `../shared/maps/cross.net.xml`; None (skipped) where it is missing and
+/// not required.
+fn shared_cross_net() -> Option<PathBuf> {
+    let path = repo_file("../shared/maps/cross.net.xml");
+    if path.exists() {
+        return Some(path.canonicalize().unwrap());
+    }
+    assert!(
+        std::env::var_os("TRAFFICMESH_REQUIRE_SHARED").is_none(),
+        "{} is missing",
+        path.display()
+    );
+    None
+}

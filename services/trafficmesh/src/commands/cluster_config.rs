@@ -203,6 +203,10 @@ impl ClusterConfig {
                 path.display()
             );
         }
+        let problems = config.value_problems();
+        if !problems.is_empty() {
+            bail!("{}: {}", path.display(), problems.join("; "));
+        }
         if config.restart.initial_backoff_ms == 0
             || config.restart.max_backoff_ms < config.restart.initial_backoff_ms
         {
@@ -212,6 +216,66 @@ impl ClusterConfig {
             );
         }
         Ok(config)
+    }
+
+    /// The settings each service would refuse at start, named as in the file
+    /// (the same rules the services apply to their flags).
+    fn value_problems(&self) -> Vec<String> {
+        let mut problems = Vec::new();
+        let mut check = |ok: bool, what: &str| {
+            if !ok {
+                problems.push(what.to_string());
+            }
+        };
+        let positive = |x: f64| x.is_finite() && x > 0.0;
+        let (st, p, a) = (&self.stepper, &self.pedestrians, &self.admin);
+        check(
+            positive(st.dt) && st.dt <= 1.0,
+            &format!("stepper.dt must be in (0, 1] seconds, got {}", st.dt),
+        );
+        check(
+            st.speed.is_finite() && st.speed >= 0.0,
+            &format!(
+                "stepper.speed must be 0 (as fast as possible) or a positive factor, got {}",
+                st.speed
+            ),
+        );
+        for (name, v) in [
+            ("lights.validity", self.lights.validity),
+            ("crosswalks.validity", self.crosswalks.validity),
+            ("admin.request_timeout", a.request_timeout),
+        ] {
+            check(
+                positive(v),
+                &format!("{name} must be a positive number of seconds, got {v}"),
+            );
+        }
+        check(
+            p.per_minute.is_finite() && p.per_minute >= 0.0,
+            &format!(
+                "pedestrians.per_minute must be a number >= 0, got {}",
+                p.per_minute
+            ),
+        );
+        check(
+            (0.0..=1.0).contains(&p.cyclist_share),
+            &format!(
+                "pedestrians.cyclist_share must be between 0 and 1, got {}",
+                p.cyclist_share
+            ),
+        );
+        check(
+            a.max_body_bytes > 0,
+            "admin.max_body_bytes must be positive",
+        );
+        check(
+            !a.enabled || a.listen.parse::<std::net::SocketAddr>().is_ok(),
+            &format!(
+                "admin.listen must be an address and port like 127.0.0.1:8080, got '{}'",
+                a.listen
+            ),
+        );
+        problems
     }
 
     /// Every service to start.

@@ -1,5 +1,7 @@
-//! `trafficmesh up`: starts every service as a child process with its own log
-//! prefix, restarts one that dies (with backoff), and on Ctrl-C or SIGTERM
+//! `trafficmesh up`: checks every service's configuration, starts every
+//! service as a child process with its own log prefix, restarts one that dies
+//! (with backoff; one that exits with the configuration-error code stops the
+//! cluster instead), and on Ctrl-C or SIGTERM
 //! stops them all with SIGTERM so each finishes cleanly (the spawner writes
 //! its CSV).
 
@@ -7,7 +9,7 @@ use std::path::PathBuf;
 use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use clap::Args;
 use tokio::io::{AsyncBufReadExt, AsyncRead, BufReader};
 use tokio::process::{Child, Command};
@@ -50,7 +52,13 @@ struct Running {
     started: Instant,
     backoff: Duration,
     restart_at: Option<Instant>,
+    /// Exited with the configuration-error code: never restarted.
+    failed: bool,
 }
+
+/// The exit code of a service that cannot run with its configuration (bad
+/// flags, files or settings): restarting it would fail again.
+const CONFIG_ERROR: i32 = 2;
 
 pub fn run(a: UpArgs) -> Result<()> {
     let mut config = ClusterConfig::load(&a.config)?;
@@ -60,20 +68,20 @@ pub fn run(a: UpArgs) -> Result<()> {
     if let Some(e) = a.endpoint {
         config.endpoint = e;
     }
+    let map_given = a.map.is_some();
     if let Some(m) = a.map {
         config.map = Some(m);
         config.sumocfg = None;
     }
-    // Fail here, with the file named, rather than in five children at once.
-    match (&config.sumocfg, &config.map) {
-        (Some(cfg), _) => {
-            trafficmesh_maps::load_scenario(cfg, config.seed)?;
-        }
-        (None, Some(map)) => {
-            trafficmesh_maps::load_network(map)?;
-        }
+    // Every service's configuration is checked here, before anything starts:
+    // one message naming the file, rather than five children failing at once
+    // or one restarted for ever.
+    let net = match (&config.sumocfg, &config.map) {
+        (Some(cfg), _) => trafficmesh_maps::load_scenario_network(cfg, config.seed)?.0,
+        (None, Some(map)) => trafficmesh_maps::load_network(map)?,
         (None, None) => unreachable!("ClusterConfig::load checks that one is given"),
-    }
+    };
+    check_spawn_config(&mut config, &net, &a.config, map_given)?;
     trafficmesh_bus::Keys::new(&config.cluster)?;
     if let Some(dir) = config.spawner.branch_csv.parent()
         && !dir.as_os_str().is_empty()
@@ -85,6 +93,77 @@ pub fn run(a: UpArgs) -> Result<()> {
         .build()
         .context("cannot start the async runtime")?
         .block_on(supervise(config))
+}
+
+/// The spawn config the spawner starts from must name lanes of the map. With
+/// a map given on the command line, one written for another map is set
+/// aside: the spawner starts from the map's own spawn config
+/// (`traffic_spawn.<map>.json` beside it, where the admin's saves then go),
+/// empty until one is saved.
+fn check_spawn_config(
+    config: &mut ClusterConfig,
+    net: &trafficmesh_sim::LaneNetwork,
+    cluster_toml: &std::path::Path,
+    map_given: bool,
+) -> Result<()> {
+    let lanes_ok = |path: &std::path::Path| -> Result<std::result::Result<(), String>> {
+        if !path.exists() {
+            return Ok(Ok(()));
+        }
+        let spawn = trafficmesh_maps::load_spawn_config(path)?;
+        Ok(spawn
+            .validate(|lane| net.lane_id(lane).is_some())
+            .map_err(|e| e.problems.join("; ")))
+    };
+    let path = config.spawner.spawn_config.clone();
+    let Err(problem) = lanes_ok(&path)? else {
+        return Ok(());
+    };
+    let map = config
+        .map
+        .clone()
+        .or(config.sumocfg.clone())
+        .expect("one is given");
+    if !map_given {
+        bail!(
+            "{}: {problem}\n  fix: correct or remove those entries, or set spawner.spawn_config in {} to a spawn config for {}",
+            path.display(),
+            cluster_toml.display(),
+            map.display()
+        );
+    }
+    let stem = map
+        .file_name()
+        .map(|f| {
+            f.to_string_lossy()
+                .split('.')
+                .next()
+                .unwrap_or("map")
+                .to_string()
+        })
+        .unwrap_or_else(|| "map".into());
+    let own = path.with_file_name(format!("traffic_spawn.{stem}.json"));
+    if let Err(problem) = lanes_ok(&own)? {
+        bail!(
+            "{}: {problem}\n  fix: correct or remove that file (the spawn config kept for {})",
+            own.display(),
+            map.display()
+        );
+    }
+    tracing::warn!(
+        "{} is written for another map ({}); starting with {}'s own spawn config {} ({})",
+        path.display(),
+        problem.split("; ").next().unwrap_or_default(),
+        map.display(),
+        own.display(),
+        if own.exists() {
+            "saved earlier"
+        } else {
+            "empty until the admin saves one"
+        }
+    );
+    config.spawner.spawn_config = own;
+    Ok(())
 }
 
 async fn supervise(config: ClusterConfig) -> Result<()> {
@@ -102,6 +181,7 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
             started: Instant::now(),
             backoff: initial,
             restart_at: Some(Instant::now()),
+            failed: false,
         })
         .collect();
     tracing::info!(
@@ -124,6 +204,11 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
             _ = every.tick() => {
                 for s in &mut services {
                     check(s, &lines, initial, max);
+                }
+                // A part that cannot run stops the whole: a cluster without
+                // it would run on, silently incomplete.
+                if services.iter().any(|s| s.failed) {
+                    break;
                 }
             }
         }
@@ -154,6 +239,17 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
         eprintln!("{line}");
     }
     tracing::info!("cluster stopped");
+    let failed: Vec<&str> = services
+        .iter()
+        .filter(|s| s.failed)
+        .map(|s| s.name)
+        .collect();
+    if !failed.is_empty() {
+        bail!(
+            "{}: cannot run with the configuration given (see the log above); the cluster is stopped",
+            failed.join(", ")
+        );
+    }
     Ok(())
 }
 
@@ -163,6 +259,14 @@ fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Durati
         && let Ok(Some(status)) = child.try_wait()
     {
         s.child = None;
+        if status.code() == Some(CONFIG_ERROR) {
+            tracing::error!(
+                "{} exited with the configuration-error code {CONFIG_ERROR} (its log above names the problem); not restarted: fix its configuration and run `trafficmesh up` again",
+                s.name
+            );
+            s.failed = true;
+            return;
+        }
         // A service that ran a while gets the short delay again.
         if s.started.elapsed() > Duration::from_secs(10) {
             s.backoff = initial;
