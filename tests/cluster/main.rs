@@ -502,3 +502,74 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
     );
     assert!(stdout.contains("OK"), "{stdout}\n{stderr}");
 }
+
+/// Late joiners see the current light colours and crosswalk occupancy at
+/// once, not at the next change: `trafficmesh watch` started after the
+/// cluster prints every light's colour in its first line, and a Python
+/// client has them all within a second of opening its session.
+#[test]
+fn late_joiners_see_every_light_and_crosswalk_at_once() {
+    let cluster = Cluster::start("late", "", false, 1.0);
+    runtime().block_on(async {
+        let bus = cluster.client().await;
+        status(&bus, "lights").await;
+        status(&bus, "crosswalks").await;
+    });
+    // Long enough that the states were published well before we join.
+    std::thread::sleep(Duration::from_secs(2));
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args([
+            "watch",
+            "--count",
+            "1",
+            "--cluster",
+            &cluster.name,
+            "--connect",
+        ])
+        .arg(&cluster.endpoint)
+        .output()
+        .unwrap();
+    let line = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{line}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let counts: Vec<u32> = line
+        .split("lights green/yellow/red=")
+        .nth(1)
+        .and_then(|rest| rest.split_whitespace().next())
+        .unwrap_or_else(|| panic!("no light counts in: {line}"))
+        .split('/')
+        .map(|n| n.parse().unwrap())
+        .collect();
+    assert_eq!(counts.iter().sum::<u32>(), 2, "both light groups: {line}");
+    assert!(
+        line.contains("crosswalks occupied=0/4"),
+        "four crosswalks: {line}"
+    );
+
+    let Some(python) = python_with("zenoh", "eclipse-zenoh==1.10.2") else {
+        return;
+    };
+    let out = std::process::Command::new(python)
+        .arg(repo().join("tests/cluster/late_joiner.py"))
+        .args([&cluster.endpoint, &cluster.name])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains("lights=2 crosswalks=4"), "{stdout}");
+    let seconds: f64 = stdout
+        .split("seconds=")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(seconds < 1.0, "the states took {seconds} s: {stdout}");
+}

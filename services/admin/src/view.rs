@@ -157,7 +157,8 @@ impl ClusterView {
                 if known {
                     break;
                 }
-                tokio::time::sleep(std::time::Duration::from_secs(2)).await;
+                // A session just opened meets the other peers one by one.
+                tokio::time::sleep(std::time::Duration::from_millis(200)).await;
             }
         });
         Ok(())

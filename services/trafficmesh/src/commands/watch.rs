@@ -30,10 +30,10 @@ pub fn run(a: WatchArgs) -> Result<()> {
             let mut light_colors: BTreeMap<String, LightColor> = BTreeMap::new();
             let mut occupied: BTreeMap<String, bool> = BTreeMap::new();
             bus.wait_for_peer(Duration::from_secs(2)).await;
-            for s in bus.get_each::<LightState>(&keys.light_states(), Duration::from_millis(500)).await? {
+            for s in current::<LightState>(&bus, &keys.light_states()).await? {
                 light_colors.insert(s.group, s.color);
             }
-            for o in bus.get_each::<CrosswalkOccupancy>(&keys.occupancies(), Duration::from_millis(500)).await? {
+            for o in current::<CrosswalkOccupancy>(&bus, &keys.occupancies()).await? {
                 occupied.insert(o.area, o.occupied);
             }
             let mut last: Option<Clock> = None;
@@ -57,6 +57,21 @@ pub fn run(a: WatchArgs) -> Result<()> {
                 }
             }
         })
+}
+
+/// The current states under `key`, asked for until some answer: a session
+/// just opened meets the other peers one by one, so the service that holds
+/// them may not be reachable at the first query. Gives up after two seconds
+/// (a map without lights or crosswalks has none).
+async fn current<T: serde::de::DeserializeOwned>(bus: &Bus, key: &str) -> Result<Vec<T>> {
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(2);
+    loop {
+        let states = bus.get_each::<T>(key, Duration::from_millis(300)).await?;
+        if !states.is_empty() || tokio::time::Instant::now() >= deadline {
+            return Ok(states);
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
 }
 
 async fn services(bus: &Bus, keys: &Keys) -> Vec<String> {
