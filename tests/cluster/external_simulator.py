@@ -1,14 +1,17 @@
 """A client we did not write (eclipse-zenoh from PyPI) against a running cluster.
 
-Usage: external_simulator.py ENDPOINT CLUSTER. Prints OK and exits 0 when:
+Usage: external_simulator.py ENDPOINT CLUSTER MAP_JSON. Prints OK and exits 0 when:
 - vehicle batches (binary, read with `struct` from the layout in docs/cluster.md) and
   light states arrive and decode;
+- every vehicle's box, drawn from the batch alone (position, yaw, size and front
+  offset), lies on its lane of the map file;
 - an external simulator's proposal is spawned (its result names a vehicle
   that the stepper's events report as spawned on that lane);
 - when two external simulators propose on the same lane at once, the one
   with the higher priority spawns first.
 """
 import json
+import math
 import struct
 import sys
 import threading
@@ -16,7 +19,7 @@ import time
 
 import zenoh
 
-ENDPOINT, CLUSTER = sys.argv[1], sys.argv[2]
+ENDPOINT, CLUSTER, MAP = sys.argv[1], sys.argv[2], sys.argv[3]
 LANE = "J0_0_in_W0"
 JSON = zenoh.Encoding.APPLICATION_JSON
 
@@ -39,14 +42,14 @@ batches, lights, spawned_on, results = [], {}, {}, []
 
 # The binary vehicle batch, read from the layout in docs/cluster.md with `struct`.
 HEADER = struct.Struct("<4sHHQdQI")
-RECORD = struct.Struct("<QIHBBBB10f")
-FLOATS = ("s", "x", "y", "z", "yaw", "speed", "accel", "length", "width", "check_distance")
+RECORD = struct.Struct("<QIHBBBB11f")
+FLOATS = ("s", "x", "y", "z", "yaw", "speed", "accel", "length", "width", "check_distance", "front_offset")
 encodings = set()
 
 
 def decode_batch(data):
     magic, version, record, tick, sim_time, sent_us, count = HEADER.unpack_from(data, 0)
-    if magic != b"TMVB" or version != 1 or record < RECORD.size:
+    if magic != b"TMVB" or version != 2 or record < RECORD.size:
         fail(f"vehicle batch header: {magic!r} version {version} record {record}")
     if len(data) != HEADER.size + count * record:
         fail(f"vehicle batch of {count} vehicles is {len(data)} bytes")
@@ -111,11 +114,67 @@ wait("a vehicle batch with vehicles", lambda: any(b["vehicles"] for b in batches
 with lock:
     v = next(b for b in batches if b["vehicles"])["vehicles"][0]
     encoding = set(encodings)
-if encoding != {"application/octet-stream;trafficmesh.vehicles.v1"}:
+if encoding != {"application/octet-stream;trafficmesh.vehicles.v2"}:
     fail(f"vehicle batch encoding: {encoding}")
 # Speed modes NORMAL..ABSOLUTE_STOP, kinds from the five-entry catalogue, a car-sized box.
 if not (v["mode"] < 5 and v["kind"] < 5 and 2.0 < v["length"] < 12.0 and 1.0 < v["width"] < 3.0):
     fail(f"vehicle state out of range: {v}")
+
+
+
+def project(p, points):
+    """(distance from p to the polyline, arc length of the nearest point on it)."""
+    best, along, start = (float("inf"), 0.0), 0.0, 0.0
+    for (ax, ay, *_), (bx, by, *_) in zip(points, points[1:]):
+        dx, dy = bx - ax, by - ay
+        length = math.hypot(dx, dy)
+        t = max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / (length * length or 1.0)))
+        d = math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy)
+        if d < best[0]:
+            best = (d, start + t * length)
+        start += length
+    return best
+
+
+def distance_to_polyline(p, points):
+    return project(p, points)[0]
+
+
+# Every box, drawn from the batch alone, lies on its lane: (x, y) is the rear
+# axle, the front bumper `front_offset` ahead along the yaw, the box's centre
+# `front_offset - length / 2` ahead. Lane ids index the map file's lanes. The
+# front bumper lies on the vehicle's lane, the centre on it or on the lane
+# before it (a vehicle just past a lane's start).
+with open(MAP) as f:
+    lanes = json.load(f)["lanes"]
+by_name = {lane["name"]: lane for lane in lanes}
+before = {lane["name"]: [] for lane in lanes}
+for lane in lanes:
+    for n in lane["next"]:
+        before[n].append(lane["name"])
+with lock:
+    batch = next(b for b in reversed(batches) if len(b["vehicles"]) >= 5)
+for v in batch["vehicles"]:
+    lane = lanes[v["lane"]]
+    if not 0.0 < v["front_offset"] <= v["length"]:
+        fail(f"front offset {v['front_offset']} of a {v['length']} m box: {v}")
+    c, s = math.cos(v["yaw"]), math.sin(v["yaw"])
+    ahead = v["front_offset"] - v["length"] / 2
+    centre = (v["x"] + c * ahead, v["y"] + s * ahead)
+    front = (v["x"] + c * v["front_offset"], v["y"] + s * v["front_offset"])
+    room = lane.get("width", 3.5) / 2
+    off, along = project(front, lane["waypoints"])
+    if off > room:
+        fail(f"vehicle {v['id']}'s front bumper {front} is off its lane {lane['name']}")
+    # `s` is the front bumper's arc length on the lane: the drawn bumper is there.
+    if abs(along - v["s"]) > 0.3:
+        fail(f"vehicle {v['id']}'s front bumper is drawn at {along:.2f} m along {lane['name']}, not at s={v['s']:.2f}")
+    near = min(
+        distance_to_polyline(centre, by_name[name]["waypoints"])
+        for name in [lane["name"], *before[lane["name"]]]
+    )
+    if near > room:
+        fail(f"vehicle {v['id']}'s box centre {centre} is {near:.2f} m off its lane {lane['name']}")
 
 # Light states: the current ones by query, changes by subscription.
 for reply in session.get(f"{CLUSTER}/lights/state/*"):

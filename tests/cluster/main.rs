@@ -492,6 +492,7 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
     let out = std::process::Command::new(python)
         .arg(script)
         .args([&cluster.endpoint, &cluster.name])
+        .arg(four_way())
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);

@@ -110,23 +110,26 @@ function vehicle(i) {
     z: d.getFloat32(o + 30, true), yaw: d.getFloat32(o + 34, true), speed: d.getFloat32(o + 38, true),
     accel: d.getFloat32(o + 42, true), length: d.getFloat32(o + 46, true), width: d.getFloat32(o + 50, true),
     check: d.getFloat32(o + 54, true),
+    // From version 2: the front bumper's distance ahead of (x, y).
+    front: batch.version >= 2 ? d.getFloat32(o + 58, true) : (map.kinds[d.getUint16(o + 12, true)] || { front: 0 }).front,
   };
 }
 
 function readBatch(buffer) {
   const d = new DataView(buffer);
   const magic = String.fromCharCode(d.getUint8(0), d.getUint8(1), d.getUint8(2), d.getUint8(3));
-  if (magic !== "TMVB" || d.getUint16(4, true) !== 1) throw new Error("not a version-1 vehicle batch");
+  const version = d.getUint16(4, true);
+  if (magic !== "TMVB" || (version !== 1 && version !== 2)) throw new Error("not a version-1 or 2 vehicle batch");
   const record = d.getUint16(6, true), count = d.getUint32(32, true);
+  if (record < (version >= 2 ? 62 : 58)) throw new Error("vehicle batch records too short");
   if (buffer.byteLength !== HEADER_BYTES + count * record) throw new Error("vehicle batch length mismatch");
-  return { tick: Number(d.getBigUint64(8, true)), time: d.getFloat64(16, true), count, record, view: d };
+  return { tick: Number(d.getBigUint64(8, true)), time: d.getFloat64(16, true), count, record, version, view: d };
 }
 
 // The box's centre: the pose is the rear axle, `front` metres behind the front bumper.
 function boxCorners(v) {
   const c = Math.cos(v.yaw), s = Math.sin(v.yaw);
-  const front = (map.kinds[v.kind] || { front: v.length * 0.8 }).front;
-  const mid = front - v.length / 2;
+  const mid = v.front - v.length / 2;
   const cx = v.x + c * mid, cy = v.y + s * mid, hl = v.length / 2, hw = v.width / 2;
   return [[cx + c * hl - s * hw, cy + s * hl + c * hw], [cx + c * hl + s * hw, cy + s * hl - c * hw],
     [cx - c * hl + s * hw, cy - s * hl - c * hw], [cx - c * hl - s * hw, cy - s * hl + c * hw]];
@@ -219,8 +222,7 @@ function draw() {
       drawn++;
       if (gizmos && layer("showObstacleChecking") && v.check > 0) {
         const c = Math.cos(v.yaw), s = Math.sin(v.yaw);
-        const front = (map.kinds[v.kind] || { front: 0 }).front;
-        const fx = v.x + c * front, fy = v.y + s * front;
+        const fx = v.x + c * v.front, fy = v.y + s * v.front;
         rays.moveTo(fx, fy);
         rays.lineTo(fx + c * v.check, fy + s * v.check);
       }

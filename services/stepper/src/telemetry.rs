@@ -64,6 +64,7 @@ impl Outputs {
                 signal: v.turn_signal,
                 zebra_blocked: v.zebra.is_blocked,
                 check_distance: (v.path_length - v.s).max(0.0) as f32,
+                front_offset: v.front_offset as f32,
             })
             .collect()
     }

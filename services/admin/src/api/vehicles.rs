@@ -46,6 +46,11 @@ pub struct VehicleView {
     pub signal: &'static str,
     pub zebra_blocked: bool,
     pub check_distance: f32,
+    /// Metres from (x, y), the rear axle, forward to the front bumper.
+    pub front_offset: f32,
+    /// The centre of the vehicle's box: `front_offset - length / 2` ahead of
+    /// (x, y) along `yaw`.
+    pub box_center: [f32; 2],
 }
 
 #[derive(Deserialize, IntoParams)]
@@ -79,6 +84,11 @@ fn view(app: &App, v: &VehicleState) -> VehicleView {
         },
         zebra_blocked: v.zebra_blocked,
         check_distance: v.check_distance,
+        front_offset: v.front_offset,
+        box_center: {
+            let ahead = v.front_offset - v.length / 2.0;
+            [v.x + ahead * v.yaw.cos(), v.y + ahead * v.yaw.sin()]
+        },
     }
 }
 

@@ -53,6 +53,11 @@ pub struct VehicleState {
     pub zebra_blocked: bool,
     /// Distance ahead the obstacle check covers this tick (the debug layer's ray).
     pub check_distance: f32,
+    /// How far the front bumper lies ahead of (x, y) along the heading: (x, y)
+    /// is the reference point (the rear axle, AWSIM's pose), so the box's
+    /// centre is `front_offset - length / 2` ahead of it. NaN from a
+    /// version-1 batch, which did not carry it.
+    pub front_offset: f32,
 }
 
 /// `<cluster>/events`: what happened during one tick, when anything did.

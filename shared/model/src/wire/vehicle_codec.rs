@@ -5,15 +5,17 @@
 //! `DataView`).
 //!
 //! Layout (all little-endian, no padding):
-//! - header, 36 bytes: magic `TMVB`, version u16 (1), record size u16 (58),
+//! - header, 36 bytes: magic `TMVB`, version u16 (2), record size u16 (62),
 //!   tick u64, time f64, sent_unix_us u64, vehicle count u32;
 //! - then one record per vehicle: id u64, lane u32, kind u16, mode u8,
-//!   yield_phase u8, signal u8, flags u8 (bit 0: zebra_blocked), then ten f32:
-//!   s, x, y, z, yaw, speed, accel, length, width, check_distance.
+//!   yield_phase u8, signal u8, flags u8 (bit 0: zebra_blocked), then eleven
+//!   f32: s, x, y, z, yaw, speed, accel, length, width, check_distance and
+//!   (from version 2) front_offset.
 //!
 //! Enum codes are declaration order (`SpeedMode::ALL`, ...). Readers step by
-//! the header's record size, so later versions may append fields to a record
-//! without breaking them.
+//! the header's record size and read the fields they know, so later versions
+//! may append fields to a record without breaking them; this reader takes
+//! version 1 too (its records end before `front_offset`).
 
 use thiserror::Error;
 
@@ -21,11 +23,13 @@ use super::{VehicleBatch, VehicleState};
 use crate::{SpeedMode, TurnSignal, YieldPhase};
 
 pub const MAGIC: &[u8; 4] = b"TMVB";
-pub const VERSION: u16 = 1;
+pub const VERSION: u16 = 2;
 pub const HEADER_BYTES: usize = 36;
-pub const RECORD_BYTES: usize = 58;
+pub const RECORD_BYTES: usize = 62;
+/// Version 1's records, without `front_offset`.
+const RECORD_BYTES_V1: usize = 58;
 /// The Zenoh encoding schema the stepper puts on each batch.
-pub const SCHEMA: &str = "trafficmesh.vehicles.v1";
+pub const SCHEMA: &str = "trafficmesh.vehicles.v2";
 
 #[derive(Debug, Error, PartialEq)]
 pub enum DecodeError {
@@ -33,10 +37,14 @@ pub enum DecodeError {
     ShortHeader(usize),
     #[error("vehicle batch does not start with the magic \"TMVB\" (JSON from an older stepper?)")]
     BadMagic,
-    #[error("vehicle batch version {0} is not supported (this reader knows version 1)")]
+    #[error("vehicle batch version {0} is not supported (this reader knows versions 1 and 2)")]
     Version(u16),
-    #[error("vehicle batch record size {0} is below the 58 bytes of version 1")]
-    RecordSize(u16),
+    #[error("vehicle batch record size {record} is below the {needed} bytes of version {version}")]
+    RecordSize {
+        record: u16,
+        needed: usize,
+        version: u16,
+    },
     #[error(
         "vehicle batch announces {count} vehicles of {record} bytes but carries {actual} bytes after the header"
     )]
@@ -113,6 +121,7 @@ impl VehicleBatch {
                 v.length,
                 v.width,
                 v.check_distance,
+                v.front_offset,
             ] {
                 out.extend_from_slice(&f.to_le_bytes());
             }
@@ -130,12 +139,18 @@ impl VehicleBatch {
             return Err(DecodeError::BadMagic);
         }
         let version = u16::from_le_bytes(header.take());
-        if version != VERSION {
-            return Err(DecodeError::Version(version));
-        }
+        let needed = match version {
+            1 => RECORD_BYTES_V1,
+            VERSION => RECORD_BYTES,
+            other => return Err(DecodeError::Version(other)),
+        };
         let record = u16::from_le_bytes(header.take());
-        if (record as usize) < RECORD_BYTES {
-            return Err(DecodeError::RecordSize(record));
+        if (record as usize) < needed {
+            return Err(DecodeError::RecordSize {
+                record,
+                needed,
+                version,
+            });
         }
         let tick = u64::from_le_bytes(header.take());
         let time = f64::from_le_bytes(header.take());
@@ -152,7 +167,7 @@ impl VehicleBatch {
         let vehicles = body
             .chunks_exact(record as usize)
             .enumerate()
-            .map(|(index, chunk)| decode_record(index, chunk))
+            .map(|(index, chunk)| decode_record(index, chunk, version))
             .collect::<Result<_, _>>()?;
         Ok(VehicleBatch {
             tick,
@@ -163,7 +178,7 @@ impl VehicleBatch {
     }
 }
 
-fn decode_record(index: usize, chunk: &[u8]) -> Result<VehicleState, DecodeError> {
+fn decode_record(index: usize, chunk: &[u8], version: u16) -> Result<VehicleState, DecodeError> {
     let mut r = Reader(chunk);
     let id = u64::from_le_bytes(r.take());
     let lane = u32::from_le_bytes(r.take());
@@ -180,7 +195,7 @@ fn decode_record(index: usize, chunk: &[u8]) -> Result<VehicleState, DecodeError
     let yield_phase = YieldPhase::ALL[code("yield_phase", YieldPhase::ALL.len(), phase)?];
     let signal = TurnSignal::ALL[code("signal", TurnSignal::ALL.len(), signal)?];
     let mut f = || f32::from_le_bytes(r.take());
-    Ok(VehicleState {
+    let mut v = VehicleState {
         id,
         kind,
         lane,
@@ -198,7 +213,12 @@ fn decode_record(index: usize, chunk: &[u8]) -> Result<VehicleState, DecodeError
         yield_phase,
         signal,
         zebra_blocked: flags & 1 != 0,
-    })
+        front_offset: f32::NAN,
+    };
+    if version >= 2 {
+        v.front_offset = f();
+    }
+    Ok(v)
 }
 
 /// Reads fixed-size fields front to back; callers check lengths first.
@@ -240,6 +260,7 @@ mod tests {
                     signal: TurnSignal::ALL[i as usize],
                     zebra_blocked: i == 1,
                     check_distance: 12.0,
+                    front_offset: 3.6,
                 })
                 .collect(),
         }
@@ -257,8 +278,8 @@ mod tests {
     fn layout_matches_the_documented_offsets() {
         let bytes = sample().encode();
         assert_eq!(&bytes[..4], b"TMVB");
-        assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 1);
-        assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 58);
+        assert_eq!(u16::from_le_bytes([bytes[4], bytes[5]]), 2);
+        assert_eq!(u16::from_le_bytes([bytes[6], bytes[7]]), 62);
         assert_eq!(u32::from_le_bytes(bytes[32..36].try_into().unwrap()), 3);
         let second = &bytes[HEADER_BYTES + RECORD_BYTES..];
         assert_eq!(u64::from_le_bytes(second[..8].try_into().unwrap()), 1001);
@@ -270,6 +291,25 @@ mod tests {
             f32::from_le_bytes(second[22..26].try_into().unwrap()),
             -3.25
         );
+        // front_offset closes the record.
+        assert_eq!(f32::from_le_bytes(second[58..62].try_into().unwrap()), 3.6);
+    }
+
+    #[test]
+    fn version_1_batches_still_decode_without_the_front_offset() {
+        let batch = sample();
+        let bytes = batch.encode();
+        let mut v1 = bytes[..HEADER_BYTES].to_vec();
+        v1[4..6].copy_from_slice(&1u16.to_le_bytes());
+        v1[6..8].copy_from_slice(&58u16.to_le_bytes());
+        for rec in bytes[HEADER_BYTES..].chunks(RECORD_BYTES) {
+            v1.extend_from_slice(&rec[..58]);
+        }
+        let decoded = VehicleBatch::decode(&v1).unwrap();
+        for (d, v) in decoded.vehicles.iter().zip(&batch.vehicles) {
+            assert!(d.front_offset.is_nan());
+            assert_eq!((d.id, d.x, d.check_distance), (v.id, v.x, v.check_distance));
+        }
     }
 
     #[test]
@@ -277,7 +317,7 @@ mod tests {
         let batch = sample();
         let bytes = batch.encode();
         let mut wide = bytes[..HEADER_BYTES].to_vec();
-        wide[6..8].copy_from_slice(&62u16.to_le_bytes());
+        wide[6..8].copy_from_slice(&66u16.to_le_bytes());
         for rec in bytes[HEADER_BYTES..].chunks(RECORD_BYTES) {
             wide.extend_from_slice(rec);
             wide.extend_from_slice(&[9, 9, 9, 9]);
@@ -311,14 +351,18 @@ mod tests {
                 code: 5
             })
         );
-        let mut v2 = bytes.clone();
-        v2[4] = 2;
-        assert_eq!(VehicleBatch::decode(&v2), Err(DecodeError::Version(2)));
+        let mut v3 = bytes.clone();
+        v3[4] = 3;
+        assert_eq!(VehicleBatch::decode(&v3), Err(DecodeError::Version(3)));
         let mut narrow = bytes;
-        narrow[6] = 57;
+        narrow[6] = 61;
         assert_eq!(
             VehicleBatch::decode(&narrow),
-            Err(DecodeError::RecordSize(57))
+            Err(DecodeError::RecordSize {
+                record: 61,
+                needed: 62,
+                version: 2
+            })
         );
     }
 }
