@@ -3,7 +3,6 @@
 use std::collections::BTreeSet;
 use std::sync::mpsc::Sender;
 
-use glam::DVec2;
 use tokio::sync::oneshot;
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_model::wire::{
@@ -176,13 +175,9 @@ fn remove(world: &mut World, target: RemoveTarget) -> Result<RemoveAnswer, Strin
         RemoveTarget::Point { x, y, z, radius } => {
             world.remove_vehicles_in_radius(glam::DVec3::new(x, y, z), radius)
         }
-        RemoveTarget::Ego { radius } => match world.ego() {
-            Some(ego) => {
-                let p = ego.position();
-                world.remove_vehicles_near(DVec2::new(p.x, p.y), radius)
-            }
-            None => return Err("no ego pose has been published".into()),
-        },
+        RemoveTarget::Ego { radius } => world
+            .remove_vehicles_around_ego(radius)
+            .ok_or("no ego pose has been published")?,
         RemoveTarget::Vehicle { id } => world.remove_vehicle(id),
     };
     Ok(RemoveAnswer { removed })

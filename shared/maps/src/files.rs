@@ -231,6 +231,56 @@ mod tests {
         assert!(err.contains("lane 'B'") && err.contains("width"), "{err}");
     }
 
+    /// A crosswalk written with document 002's inspector names loads as the
+    /// same crosswalk as one written with ours, and is written back with ours.
+    #[test]
+    fn crosswalks_in_the_documents_spelling_are_accepted() {
+        let ours = load_map(Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../configs/maps/four_way.map.json"
+        )))
+        .unwrap();
+        let mut doc: serde_json::Value = serde_json::to_value(&ours).unwrap();
+        let crosswalk = &mut doc["crosswalks"][0];
+        let c = crosswalk.as_object_mut().unwrap();
+        for (ours, theirs) in [
+            ("max_detection_distance", "maxDetectionDistance"),
+            ("forward_angle_tolerance_deg", "forwardAngleTolerance"),
+            ("stop_buffer", "stopBuffer"),
+            ("enable_debug_logs", "enableDebugLogs"),
+        ] {
+            let v = c.remove(ours).unwrap();
+            c.insert(theirs.into(), v);
+        }
+        // One stop point as the document has it, given by its position.
+        let stops = c.remove("stop_points").unwrap();
+        c.insert("stopPoint".into(), stops[0]["position"].clone());
+        let text = serde_json::to_string(&doc).unwrap();
+        let theirs = parse_map(Path::new("doc.map.json"), &text).unwrap();
+        let (a, b) = (&ours.crosswalks[0], &theirs.crosswalks[0]);
+        assert_eq!(
+            (
+                a.max_detection_distance,
+                a.forward_angle_tolerance_deg,
+                a.stop_buffer,
+                a.enable_debug_logs
+            ),
+            (
+                b.max_detection_distance,
+                b.forward_angle_tolerance_deg,
+                b.stop_buffer,
+                b.enable_debug_logs
+            )
+        );
+        assert_eq!(b.stop_points.len(), 1);
+        assert_eq!(b.stop_points[0].position, a.stop_points[0].position);
+        let written = serde_json::to_string(&theirs).unwrap();
+        assert!(
+            written.contains("max_detection_distance") && !written.contains("maxDetectionDistance"),
+            "one spelling in output: {written}"
+        );
+    }
+
     #[test]
     fn atomic_write_keeps_backup() {
         let dir = tempfile::tempdir().unwrap();

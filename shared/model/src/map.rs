@@ -156,27 +156,77 @@ fn default_buffer() -> f64 {
     1.5
 }
 
-/// A ZebraCrossingArea.
+/// A ZebraCrossingArea. Reads document 002's inspector names too
+/// (`maxDetectionDistance`, `forwardAngleTolerance`, `stopBuffer`,
+/// `enableDebugLogs`, and one `stopPoint`); written with the names below.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(from = "CrosswalkInput")]
 pub struct CrosswalkDef {
     pub name: String,
     pub area: CrosswalkArea,
     /// Defaults to the area's centre when empty (the seed: "defaults to the area's own position").
-    #[serde(default)]
     pub stop_points: Vec<StopPointDef>,
-    #[serde(default = "default_detection")]
     pub max_detection_distance: f64,
     /// Half-angle of the detection cone, degrees.
-    #[serde(default = "default_angle")]
     pub forward_angle_tolerance_deg: f64,
-    #[serde(default = "default_buffer")]
     pub stop_buffer: f64,
-    #[serde(default)]
     pub enable_debug_logs: bool,
     /// Name of the ZebraCrossingConfig (whitelist) this area belongs to.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub config: Option<String>,
+}
+
+/// A crosswalk as written: our names or the document's.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CrosswalkInput {
+    name: String,
+    area: CrosswalkArea,
+    #[serde(default)]
+    stop_points: Vec<StopPointDef>,
+    /// Document 002's single stop point: a stop point, or just its position.
+    #[serde(default, rename = "stopPoint")]
+    stop_point: Option<StopPointInput>,
+    #[serde(default = "default_detection", alias = "maxDetectionDistance")]
+    max_detection_distance: f64,
+    #[serde(default = "default_angle", alias = "forwardAngleTolerance")]
+    forward_angle_tolerance_deg: f64,
+    #[serde(default = "default_buffer", alias = "stopBuffer")]
+    stop_buffer: f64,
+    #[serde(default, alias = "enableDebugLogs")]
+    enable_debug_logs: bool,
+    #[serde(default)]
+    config: Option<String>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum StopPointInput {
+    Full(StopPointDef),
+    Position(Point),
+}
+
+impl From<CrosswalkInput> for CrosswalkDef {
+    fn from(c: CrosswalkInput) -> Self {
+        let mut stop_points = c.stop_points;
+        stop_points.extend(c.stop_point.map(|p| match p {
+            StopPointInput::Full(def) => def,
+            StopPointInput::Position(position) => StopPointDef {
+                position,
+                heading_deg: None,
+            },
+        }));
+        CrosswalkDef {
+            name: c.name,
+            area: c.area,
+            stop_points,
+            max_detection_distance: c.max_detection_distance,
+            forward_angle_tolerance_deg: c.forward_angle_tolerance_deg,
+            stop_buffer: c.stop_buffer,
+            enable_debug_logs: c.enable_debug_logs,
+            config: c.config,
+        }
+    }
 }
 
 /// A ZebraCrossingConfig: the whitelist shared by its child areas.

@@ -291,3 +291,43 @@ fn spawn_config_with_unknown_lane_is_rejected_and_nothing_changes() {
     }
     assert_eq!(w.spawn_config(), TrafficSpawnConfig::default());
 }
+
+/// RemoveVehiclesInRadius around the ego measures from the ego's own height:
+/// on a road 12 m up, the vehicles within a few metres of an ego there go.
+#[test]
+fn remove_around_an_ego_on_an_elevated_road_uses_its_height() {
+    let mut map = serde_json::to_value(forks()).unwrap();
+    for lane in map["lanes"].as_array_mut().unwrap() {
+        for p in lane["waypoints"].as_array_mut().unwrap() {
+            p[2] = json!(12.0);
+        }
+    }
+    let map: MapFile = serde_json::from_value(map).unwrap();
+    let mut w = world(
+        &map,
+        WorldConfig {
+            max_vehicles: 200,
+            ..WorldConfig::default()
+        },
+    );
+    run_for(&mut w, 60.0);
+    let target = w.vehicles()[0].clone();
+    assert!((target.pose.z - 12.0).abs() < 1e-9, "the road is 12 m up");
+    let mut ego = Ego::car(target.pose.x, target.pose.y, target.pose.yaw);
+    ego.pose.z = 12.0;
+    w.set_ego(Some(ego));
+    let near: Vec<u64> = w
+        .vehicles()
+        .iter()
+        .filter(|v| {
+            DVec2::new(v.pose.x, v.pose.y).distance(DVec2::new(target.pose.x, target.pose.y)) <= 8.0
+        })
+        .map(|v| v.id)
+        .collect();
+    assert_eq!(w.remove_vehicles_around_ego(8.0), Some(near.len()));
+    w.step();
+    assert!(
+        w.vehicle(target.id).is_none(),
+        "the vehicle at the ego is gone"
+    );
+}

@@ -409,6 +409,14 @@ impl World {
         }
     }
 
+    /// RemoveVehiclesInRadius around the ego's position (its height
+    /// included: on an elevated map a vehicle beside it is not 12 m away);
+    /// None without an ego.
+    pub fn remove_vehicles_around_ego(&mut self, radius: f64) -> Option<usize> {
+        let p = self.ego.as_ref()?.pose;
+        Some(self.remove_vehicles_in_radius(DVec3::new(p.x, p.y, p.z), radius))
+    }
+
     /// RemoveVehiclesInRadius around a 2D point at height 0.
     pub fn remove_vehicles_near(&mut self, center: DVec2, radius: f64) -> usize {
         self.remove_vehicles_in_radius(center.extend(0.0), radius)
