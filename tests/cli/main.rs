@@ -283,6 +283,14 @@ fn bad_numbers_on_the_command_line_are_rejected() {
         &["--duration", "10", "--fixed-speed-limit", "-1"],
         "fixedSpeedLimit must be a positive number",
     );
+    sim(
+        &["--duration", "10", "--sudden-deceleration", "0"],
+        "suddenDeceleration must be a positive number",
+    );
+    sim(
+        &["--duration", "10", "--spawn-distance-to-ego", "-1"],
+        "--spawn-distance-to-ego must be a number of metres >= 0",
+    );
     expect_usage_error(
         &["gen-grid", "--size", "0"],
         &["--size must be between 1 and 200"],
@@ -626,4 +634,48 @@ fn shared_cross_net() -> Option<PathBuf> {
         path.display()
     );
     None
+}
+
+/// AWSIM's NPCVehicleConfig is a setting: `sim` takes the four accelerations
+/// (the inspector's fields), reports the config in force, and they act.
+#[test]
+fn sim_takes_the_npc_vehicle_config_and_reports_it() {
+    let map = repo_file("configs/maps/four_way.map.json");
+    let reference = sim_json(&map, &["--duration", "60"]);
+    assert_eq!(
+        reference["vehicle_config"]["acceleration"], 3.0,
+        "{reference}"
+    );
+    assert_eq!(
+        reference["vehicle_config"]["absoluteDeceleration"], 20.0,
+        "{reference}"
+    );
+    let gentle = sim_json(
+        &map,
+        &[
+            "--duration",
+            "60",
+            "--acceleration",
+            "1.5",
+            "--deceleration",
+            "1.0",
+        ],
+    );
+    let config = &gentle["vehicle_config"];
+    assert_eq!(
+        (
+            config["acceleration"].as_f64(),
+            config["deceleration"].as_f64()
+        ),
+        (Some(1.5), Some(1.0)),
+        "{gentle}"
+    );
+    assert_eq!(
+        config["suddenDeceleration"], 4.0,
+        "the others keep the reference's"
+    );
+    assert_ne!(
+        gentle["trajectory_hash"], reference["trajectory_hash"],
+        "other accelerations, other trajectories"
+    );
 }

@@ -574,3 +574,32 @@ fn late_joiners_see_every_light_and_crosswalk_at_once() {
         .unwrap();
     assert!(seconds < 1.0, "the states took {seconds} s: {stdout}");
 }
+
+/// cluster.toml sets AWSIM's NPCVehicleConfig for the stepper and
+/// spawnDistanceToEgo for the spawner; both report what is in force.
+#[test]
+fn cluster_toml_sets_the_npc_vehicle_config_and_the_spawn_distance() {
+    let cluster = Cluster::start(
+        "vehcfg",
+        "spawn_distance_to_ego = 80.0\n[vehicle]\nacceleration = 2.5\nsudden_deceleration = 5.0",
+        false,
+        1.0,
+    );
+    runtime().block_on(async {
+        let bus = cluster.client().await;
+        let stepper = status(&bus, "stepper").await;
+        let config = &stepper.details["vehicle_config"];
+        assert_eq!(config["acceleration"], 2.5, "{config}");
+        assert_eq!(config["suddenDeceleration"], 5.0, "{config}");
+        assert_eq!(
+            config["deceleration"], 2.0,
+            "unset keeps the reference's: {config}"
+        );
+        let spawner = status(&bus, "spawner").await;
+        assert_eq!(
+            spawner.details["spawn_distance_to_ego"], 80.0,
+            "{:?}",
+            spawner.details
+        );
+    });
+}

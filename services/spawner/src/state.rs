@@ -35,7 +35,7 @@ impl SpawnerState {
             config: TrafficSpawnConfig::default(),
             stats: BranchStats::default(),
             max_vehicles,
-            spawn_distance_to_ego: 50.0,
+            spawn_distance_to_ego: trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego,
             ego: None,
             time: 0.0,
             externals: BTreeMap::new(),

@@ -38,6 +38,8 @@ pub struct StepperStatus {
     pub batches_dropped: u64,
     pub lights_stale: bool,
     pub crosswalks_stale: bool,
+    /// The NPCVehicleConfig in force (accelerations, speed limit, driver model).
+    pub vehicle_config: trafficmesh_model::NpcVehicleConfig,
 }
 
 #[derive(Debug, Default)]

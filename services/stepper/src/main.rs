@@ -55,6 +55,8 @@ pub struct Args {
     /// to the next lane of its way with room, or taken off (0: never).
     #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
     jam_timeout: f64,
+    #[command(flatten)]
+    vehicle: trafficmesh_maps::VehicleArgs,
 }
 
 fn main() -> ExitCode {
@@ -91,14 +93,15 @@ fn run(args: Args) -> Result<()> {
         seed: args.seed,
         dt: args.dt,
         jam_timeout: args.jam_timeout,
-        vehicle: trafficmesh_model::NpcVehicleConfig {
+        vehicle: args.vehicle.apply(trafficmesh_model::NpcVehicleConfig {
             driver_model,
             ..Default::default()
-        },
+        }),
         // The spawner's request carries the maximum; the world's own is unused.
         max_vehicles: usize::MAX,
         ..WorldConfig::default()
     };
+    config.vehicle.validate().map_err(anyhow::Error::msg)?;
     // Lights come from the lights service: red until it vouches for them.
     let mut world = World::new(net, config).without_simulators();
     world.use_remote_lights();
@@ -116,6 +119,7 @@ fn run(args: Args) -> Result<()> {
         let bus = Arc::new(bus);
         let (tx, rx) = std::sync::mpsc::channel();
         let shared = Arc::new(inputs::Shared::default());
+        shared.status.lock().expect("status lock").vehicle_config = world.config().vehicle;
         inputs::start(bus.clone(), tx.clone()).await?;
         let outputs = telemetry::start(bus.clone()).await?;
         let status = shared.clone();

@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use trafficmesh_model::NpcVehicleConfig;
 use trafficmesh_sim::LaneNetwork;
 
 use crate::FileError;
@@ -49,5 +50,37 @@ impl MapArgs {
             .as_deref()
             .or(self.map.as_deref())
             .expect("clap requires one")
+    }
+}
+
+/// AWSIM's NPCVehicleConfig accelerations, as `sim` and the stepper take them
+/// (the inspector's fields). Defaults are the reference's, from
+/// [`NpcVehicleConfig::default`].
+#[derive(clap::Args, Clone, Debug)]
+pub struct VehicleArgs {
+    /// Normal forward acceleration, m/s² (`acceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().acceleration, allow_negative_numbers = true)]
+    pub acceleration: f64,
+    /// Gentle braking of STOP and SLOW, m/s² (`deceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().deceleration, allow_negative_numbers = true)]
+    pub deceleration: f64,
+    /// Braking for a vehicle ahead, m/s² (`suddenDeceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().sudden_deceleration, allow_negative_numbers = true)]
+    pub sudden_deceleration: f64,
+    /// Emergency braking, m/s² (`absoluteDeceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().absolute_deceleration, allow_negative_numbers = true)]
+    pub absolute_deceleration: f64,
+}
+
+impl VehicleArgs {
+    /// `base` with these accelerations.
+    pub fn apply(&self, base: NpcVehicleConfig) -> NpcVehicleConfig {
+        NpcVehicleConfig {
+            acceleration: self.acceleration,
+            deceleration: self.deceleration,
+            sudden_deceleration: self.sudden_deceleration,
+            absolute_deceleration: self.absolute_deceleration,
+            ..base
+        }
     }
 }

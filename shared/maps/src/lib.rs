@@ -13,7 +13,7 @@ mod sumo;
 pub mod sumo_routes;
 pub mod sumocfg;
 
-pub use args::MapArgs;
+pub use args::{MapArgs, VehicleArgs};
 pub use files::{
     FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,

@@ -27,6 +27,8 @@ pub struct ClusterConfig {
     #[serde(default)]
     pub stepper: StepperSection,
     #[serde(default)]
+    pub vehicle: VehicleSection,
+    #[serde(default)]
     pub spawner: SpawnerSection,
     #[serde(default)]
     pub lights: ValiditySection,
@@ -100,11 +102,47 @@ impl Default for StepperSection {
     }
 }
 
+/// AWSIM's NPCVehicleConfig accelerations, m/s²; unset: the reference's
+/// (the stepper's defaults).
+#[derive(Debug, Deserialize, Default)]
+#[serde(deny_unknown_fields, default)]
+pub struct VehicleSection {
+    pub acceleration: Option<f64>,
+    pub deceleration: Option<f64>,
+    pub sudden_deceleration: Option<f64>,
+    pub absolute_deceleration: Option<f64>,
+}
+
+impl VehicleSection {
+    /// (name in the file, stepper flag, value) of each one set.
+    fn set(&self) -> Vec<(&'static str, &'static str, f64)> {
+        [
+            ("acceleration", "--acceleration", self.acceleration),
+            ("deceleration", "--deceleration", self.deceleration),
+            (
+                "sudden_deceleration",
+                "--sudden-deceleration",
+                self.sudden_deceleration,
+            ),
+            (
+                "absolute_deceleration",
+                "--absolute-deceleration",
+                self.absolute_deceleration,
+            ),
+        ]
+        .into_iter()
+        .filter_map(|(name, flag, v)| v.map(|v| (name, flag, v)))
+        .collect()
+    }
+}
+
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SpawnerSection {
     /// Default: 40, or no cap with `routes` or `sumocfg` (the spawner's).
     pub max_vehicles: Option<usize>,
+    /// spawnDistanceToEgo, metres; unset: the reference's 50.
+    pub spawn_distance_to_ego: Option<f64>,
     /// A SUMO route file whose demand replaces the map's simulators.
     pub routes: Option<PathBuf>,
     pub spawn_config: PathBuf,
@@ -114,6 +152,7 @@ impl Default for SpawnerSection {
     fn default() -> Self {
         SpawnerSection {
             max_vehicles: None,
+            spawn_distance_to_ego: None,
             routes: None,
             spawn_config: "traffic_spawn.json".into(),
             branch_csv: "traffic_branch_decisions.csv".into(),
@@ -264,6 +303,18 @@ impl ClusterConfig {
                 p.cyclist_share
             ),
         );
+        for (name, _, v) in self.vehicle.set() {
+            check(
+                positive(v),
+                &format!("vehicle.{name} must be a positive number of m/s², got {v}"),
+            );
+        }
+        if let Some(d) = self.spawner.spawn_distance_to_ego {
+            check(
+                d.is_finite() && d >= 0.0,
+                &format!("spawner.spawn_distance_to_ego must be a number of metres >= 0, got {d}"),
+            );
+        }
         check(
             a.max_body_bytes > 0,
             "admin.max_body_bytes must be positive",
@@ -328,6 +379,9 @@ impl ClusterConfig {
         if let Some(model) = &self.stepper.driver_model {
             stepper.extend(["--driver-model".into(), model.clone()]);
         }
+        for (_, flag, v) in self.vehicle.set() {
+            stepper.extend([flag.into(), v.to_string()]);
+        }
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),
             (
@@ -336,6 +390,9 @@ impl ClusterConfig {
                     let mut flags = vec!["--seed".into(), self.seed.to_string()];
                     if let Some(max) = self.spawner.max_vehicles {
                         flags.extend(["--max-vehicles".into(), max.to_string()]);
+                    }
+                    if let Some(d) = self.spawner.spawn_distance_to_ego {
+                        flags.extend(["--spawn-distance-to-ego".into(), d.to_string()]);
                     }
                     if let Some(r) = &self.spawner.routes {
                         flags.extend(["--routes".into(), r.display().to_string()]);

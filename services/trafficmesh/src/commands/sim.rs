@@ -74,6 +74,11 @@ pub struct SimArgs {
     /// Default: realistic for SUMO networks, awsim for other maps.
     #[arg(long)]
     driver_model: Option<DriverModel>,
+    #[command(flatten)]
+    vehicle: trafficmesh_maps::VehicleArgs,
+    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
+    #[arg(long, default_value_t = WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
+    spawn_distance_to_ego: f64,
 }
 
 /// The seed's SpeedLimitSource.
@@ -87,6 +92,8 @@ enum SpeedSource {
 struct Summary {
     map: String,
     driver_model: &'static str,
+    /// The NPCVehicleConfig in force.
+    vehicle_config: NpcVehicleConfig,
     seed: u64,
     threads: usize,
     dt: f64,
@@ -149,10 +156,16 @@ pub fn run(a: SimArgs) -> Result<()> {
             a.jam_timeout
         );
     }
+    if !(a.spawn_distance_to_ego.is_finite() && a.spawn_distance_to_ego >= 0.0) {
+        bail!(
+            "--spawn-distance-to-ego must be a number of metres >= 0, got {}",
+            a.spawn_distance_to_ego
+        );
+    }
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
-    let vehicle = NpcVehicleConfig {
+    let vehicle = a.vehicle.apply(NpcVehicleConfig {
         speed_limit_source: match a.speed_limit_source {
             SpeedSource::Fixed => SpeedLimitSource::FixedSpeedLimit,
             SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
@@ -167,7 +180,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             )
         }),
         ..NpcVehicleConfig::default()
-    };
+    });
     vehicle.validate().map_err(anyhow::Error::msg)?;
     let (net, warnings, duration) = load(&a)?;
     for w in warnings {
@@ -183,6 +196,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         dt: a.dt,
         vehicle,
         jam_timeout: a.jam_timeout,
+        spawn_distance_to_ego: a.spawn_distance_to_ego,
         ..WorldConfig::default()
     };
     let mut world = World::new(net, config);
@@ -262,6 +276,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             .map(|p| p.display().to_string())
             .unwrap_or_default(),
         driver_model: world.config().vehicle.driver_model.name(),
+        vehicle_config: world.config().vehicle,
         seed: a.seed,
         threads: pool.current_num_threads(),
         dt: a.dt,
