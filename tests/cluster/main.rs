@@ -603,3 +603,48 @@ fn cluster_toml_sets_the_npc_vehicle_config_and_the_spawn_distance() {
         );
     });
 }
+
+/// The stepper drives at an imported map's own lane limits when cluster.toml
+/// says `speed_limit_source = "lanelet"` (cross.net.xml: 11.11, 15.28 and
+/// 19.44 m/s), and at the fixed 13.89 m/s otherwise.
+#[test]
+fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_when_told() {
+    let net = repo().join("../shared/maps/cross.net.xml");
+    if !net.exists() {
+        assert!(
+            std::env::var_os("TRAFFICMESH_REQUIRE_SHARED").is_none(),
+            "{} is missing",
+            net.display()
+        );
+        return;
+    }
+    let net = net.canonicalize().unwrap();
+    for (source, extra) in [
+        ("fixed", ""),
+        ("lanelet", "[vehicle]\nspeed_limit_source = \"lanelet\""),
+    ] {
+        let cluster = Cluster::start_on_with_admin(&format!("limits_{source}"), &net, extra, false);
+        let top = runtime().block_on(async {
+            let bus = cluster.client().await;
+            let batches = Batches::with_traffic(&bus, 3).await;
+            let mut top = 0f32;
+            let deadline = Instant::now() + Duration::from_secs(20);
+            while Instant::now() < deadline {
+                for v in batches.latest().await.vehicles {
+                    top = top.max(v.speed);
+                }
+            }
+            top
+        });
+        match source {
+            "fixed" => assert!(
+                (12.0..=13.9).contains(&top),
+                "fixed 13.89 m/s: the fastest drove {top}"
+            ),
+            _ => assert!(
+                (15.0..=19.45).contains(&top),
+                "lane limits up to 19.44 m/s: the fastest drove {top}"
+            ),
+        }
+    }
+}

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use trafficmesh_model::NpcVehicleConfig;
+use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::LaneNetwork;
 
 use crate::FileError;
@@ -53,8 +53,8 @@ impl MapArgs {
     }
 }
 
-/// AWSIM's NPCVehicleConfig accelerations, as `sim` and the stepper take them
-/// (the inspector's fields). Defaults are the reference's, from
+/// AWSIM's NPCVehicleConfig, as `sim` and the stepper take it (the
+/// inspector's fields). Defaults are the reference's, from
 /// [`NpcVehicleConfig::default`].
 #[derive(clap::Args, Clone, Debug)]
 pub struct VehicleArgs {
@@ -70,6 +70,20 @@ pub struct VehicleArgs {
     /// Emergency braking, m/s² (`absoluteDeceleration`).
     #[arg(long, default_value_t = NpcVehicleConfig::default().absolute_deceleration, allow_negative_numbers = true)]
     pub absolute_deceleration: f64,
+    /// Where NORMAL-mode target speeds come from: one fixed speed, or each
+    /// lane's limit (`speedLimitSource`).
+    #[arg(long, value_enum, default_value_t = SpeedSource::Fixed)]
+    pub speed_limit_source: SpeedSource,
+    /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().fixed_speed_limit, allow_negative_numbers = true)]
+    pub fixed_speed_limit: f64,
+}
+
+/// The seed's SpeedLimitSource, as the flags name it.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+pub enum SpeedSource {
+    Fixed,
+    Lanelet,
 }
 
 impl VehicleArgs {
@@ -80,6 +94,11 @@ impl VehicleArgs {
             deceleration: self.deceleration,
             sudden_deceleration: self.sudden_deceleration,
             absolute_deceleration: self.absolute_deceleration,
+            speed_limit_source: match self.speed_limit_source {
+                SpeedSource::Fixed => SpeedLimitSource::FixedSpeedLimit,
+                SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
+            },
+            fixed_speed_limit: self.fixed_speed_limit,
             ..base
         }
     }

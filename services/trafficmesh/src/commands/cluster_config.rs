@@ -102,8 +102,8 @@ impl Default for StepperSection {
     }
 }
 
-/// AWSIM's NPCVehicleConfig accelerations, m/s²; unset: the reference's
-/// (the stepper's defaults).
+/// AWSIM's NPCVehicleConfig: accelerations in m/s² and the speed limit;
+/// unset: the reference's (the stepper's defaults).
 #[derive(Debug, Deserialize, Default)]
 #[serde(deny_unknown_fields, default)]
 pub struct VehicleSection {
@@ -111,6 +111,9 @@ pub struct VehicleSection {
     pub deceleration: Option<f64>,
     pub sudden_deceleration: Option<f64>,
     pub absolute_deceleration: Option<f64>,
+    /// `fixed` or `lanelet` (each lane's limit); unset: fixed.
+    pub speed_limit_source: Option<String>,
+    pub fixed_speed_limit: Option<f64>,
 }
 
 impl VehicleSection {
@@ -128,6 +131,11 @@ impl VehicleSection {
                 "absolute_deceleration",
                 "--absolute-deceleration",
                 self.absolute_deceleration,
+            ),
+            (
+                "fixed_speed_limit",
+                "--fixed-speed-limit",
+                self.fixed_speed_limit,
             ),
         ]
         .into_iter()
@@ -306,7 +314,13 @@ impl ClusterConfig {
         for (name, _, v) in self.vehicle.set() {
             check(
                 positive(v),
-                &format!("vehicle.{name} must be a positive number of m/s², got {v}"),
+                &format!("vehicle.{name} must be a positive number, got {v}"),
+            );
+        }
+        if let Some(source) = &self.vehicle.speed_limit_source {
+            check(
+                matches!(source.as_str(), "fixed" | "lanelet"),
+                &format!("vehicle.speed_limit_source must be fixed or lanelet, got '{source}'"),
             );
         }
         if let Some(d) = self.spawner.spawn_distance_to_ego {
@@ -381,6 +395,9 @@ impl ClusterConfig {
         }
         for (_, flag, v) in self.vehicle.set() {
             stepper.extend([flag.into(), v.to_string()]);
+        }
+        if let Some(source) = &self.vehicle.speed_limit_source {
+            stepper.extend(["--speed-limit-source".into(), source.clone()]);
         }
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),

@@ -7,7 +7,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use trafficmesh_model::{DriverModel, NpcVehicleConfig, SpeedLimitSource};
+use trafficmesh_model::{DriverModel, NpcVehicleConfig};
 use trafficmesh_sim::{DespawnReason, SimEvent, TripRecord, World, WorldConfig};
 
 use super::thread_pool;
@@ -52,12 +52,6 @@ pub struct SimArgs {
     /// Tick length, seconds.
     #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
     dt: f64,
-    /// Where NORMAL-mode target speeds come from: one fixed speed, or each lane's limit.
-    #[arg(long, value_enum, default_value_t = SpeedSource::Fixed)]
-    speed_limit_source: SpeedSource,
-    /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
-    #[arg(long, default_value_t = 13.89, allow_negative_numbers = true)]
-    fixed_speed_limit: f64,
     /// Directory for trips.csv, traffic_branch_decisions.csv and traffic_spawn.json.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -79,13 +73,6 @@ pub struct SimArgs {
     /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
     #[arg(long, default_value_t = WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
     spawn_distance_to_ego: f64,
-}
-
-/// The seed's SpeedLimitSource.
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum SpeedSource {
-    Fixed,
-    Lanelet,
 }
 
 #[derive(Serialize)]
@@ -166,11 +153,6 @@ pub fn run(a: SimArgs) -> Result<()> {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
     let vehicle = a.vehicle.apply(NpcVehicleConfig {
-        speed_limit_source: match a.speed_limit_source {
-            SpeedSource::Fixed => SpeedLimitSource::FixedSpeedLimit,
-            SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
-        },
-        fixed_speed_limit: a.fixed_speed_limit,
         driver_model: a.driver_model.unwrap_or_else(|| {
             trafficmesh_maps::default_driver_model(
                 a.sumocfg
