@@ -720,6 +720,10 @@ fn a_sumocfg_runs_its_net_routes_programs_and_vehicle_types() {
     let Some(report) = vs_sumo(&["--sumocfg".as_ref(), cfg.as_os_str()]) else {
         return;
     };
+    assert!(
+        !dir.path().join("out.xml").exists(),
+        "the benchmark wrote the scenario's detector output into the scenario's folder"
+    );
     for side in ["sumo", "trafficmesh"] {
         let f = &report[side];
         assert_eq!(f["inserted"], 10, "{side}: {report}");

@@ -167,13 +167,81 @@ fn sumo_binary(given: Option<PathBuf>) -> PathBuf {
     home.join(".cache/trafficmesh-venv/bin/sumo")
 }
 
+/// The scenario's folder copied into the scratch folder, and a copy of the
+/// configuration whose input files outside that folder are named by their
+/// absolute paths: SUMO writes the outputs a scenario's own files name
+/// (detectors, its tripinfo and log) beside those files, and a benchmark
+/// must not write into a user's scenario.
+fn scenario_copy(cfg: &Path, scratch: &Path) -> Result<PathBuf> {
+    let folder = cfg
+        .canonicalize()
+        .with_context(|| format!("cannot read {}", cfg.display()))?
+        .parent()
+        .map(Path::to_path_buf)
+        .unwrap_or_default();
+    let copy = scratch.join("scenario");
+    std::fs::create_dir_all(&copy).with_context(|| format!("cannot create {}", copy.display()))?;
+    for entry in
+        std::fs::read_dir(&folder).with_context(|| format!("cannot read {}", folder.display()))?
+    {
+        let path = entry?.path();
+        if path.is_file() {
+            let to = copy.join(path.file_name().expect("a file has a name"));
+            std::fs::copy(&path, &to)
+                .with_context(|| format!("cannot copy {} to {}", path.display(), to.display()))?;
+        }
+    }
+    let text =
+        std::fs::read_to_string(cfg).with_context(|| format!("cannot read {}", cfg.display()))?;
+    let doc = roxmltree::Document::parse(&text)
+        .with_context(|| format!("{} is not XML", cfg.display()))?;
+    // An input outside the folder, by its absolute path; the rest as written.
+    let input = |value: &str| -> String {
+        value
+            .split(',')
+            .map(|f| {
+                let f = f.trim();
+                let resolved = folder.join(f);
+                match resolved.canonicalize() {
+                    Ok(abs) if abs.parent() != Some(folder.as_path()) => abs.display().to_string(),
+                    _ => f.to_string(),
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let mut out = String::from("<configuration>\n");
+    for section in doc.root_element().children().filter(|n| n.is_element()) {
+        out += &format!("  <{}>\n", section.tag_name().name());
+        for option in section.children().filter(|n| n.is_element()) {
+            let tag = option.tag_name().name();
+            let value = option.attribute("value").unwrap_or("");
+            let value = if matches!(tag, "net-file" | "route-files" | "additional-files") {
+                input(value)
+            } else {
+                value.to_string()
+            };
+            let escaped = value
+                .replace('&', "&amp;")
+                .replace('"', "&quot;")
+                .replace('<', "&lt;");
+            out += &format!("    <{tag} value=\"{escaped}\"/>\n");
+        }
+        out += &format!("  </{}>\n", section.tag_name().name());
+    }
+    out += "</configuration>\n";
+    let copied = copy.join(cfg.file_name().expect("a configuration file has a name"));
+    std::fs::write(&copied, out).with_context(|| format!("cannot write {}", copied.display()))?;
+    Ok(copied)
+}
+
 fn run_sumo(a: &VsSumoArgs, sumo: &Path, perf: bool, scratch: &Path) -> Result<Figures> {
     let stats = scratch.join("sumo-stats.xml");
     let trips = scratch.join("sumo-trips.xml");
     let mut cmd = Command::new(sumo);
     match (&a.sumocfg, &a.net, &a.routes) {
         (Some(cfg), _, _) => {
-            cmd.arg("-c").arg(cfg);
+            cmd.arg("-c").arg(scenario_copy(cfg, scratch)?);
         }
         (None, Some(net), Some(routes)) => {
             cmd.arg("-n").arg(net).arg("-r").arg(routes);
