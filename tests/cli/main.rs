@@ -679,3 +679,43 @@ fn sim_takes_the_npc_vehicle_config_and_reports_it() {
         "other accelerations, other trajectories"
     );
 }
+
+/// `sim --pedestrians` runs the built-in walkers and cyclists in the headless
+/// run: they occupy the zebra crossings, vehicles stop for them with the
+/// seed's log lines, and the run stays deterministic by seed.
+#[test]
+fn sim_runs_pedestrians_that_stop_vehicles_at_zebras() {
+    let map = repo_file("configs/maps/four_way.map.json");
+    let run = |pedestrians: &str| {
+        let out = trafficmesh(&[
+            "sim",
+            "--map",
+            map.to_str().unwrap(),
+            "--duration",
+            "180",
+            "--seed",
+            "3",
+            "--pedestrians",
+            pedestrians,
+            "--json",
+        ]);
+        let stderr = String::from_utf8_lossy(&out.stderr).to_string();
+        assert!(out.status.success(), "{stderr}");
+        let summary: Value = serde_json::from_slice(&out.stdout).unwrap();
+        (summary["trajectory_hash"].clone(), stderr)
+    };
+    let (hash, log) = run("10");
+    assert!(
+        log.contains("[Zebra] '") && log.contains("entered 'J0_0_crosswalk_"),
+        "walkers enter the crosswalks: {log}"
+    );
+    assert!(
+        log.contains("[NPC Zebra] Vehicle '")
+            && log.contains("stopping for zebra 'J0_0_crosswalk_"),
+        "a vehicle stops for them: {log}"
+    );
+    assert_eq!(run("10").0, hash, "the same seed gives the same run");
+    let (without, quiet) = run("0");
+    assert_ne!(without, hash, "the walkers change the traffic");
+    assert!(!quiet.contains("[NPC Zebra]"), "no walkers, no zebra stops");
+}

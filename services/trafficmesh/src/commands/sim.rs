@@ -73,6 +73,11 @@ pub struct SimArgs {
     /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
     #[arg(long, default_value_t = WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
     spawn_distance_to_ego: f64,
+    /// Built-in walkers and cyclists starting across each crosswalk per minute
+    /// (the cluster's pedestrians service, run in this process; a fifth of
+    /// them cyclists, deterministic by seed); 0 = none.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pedestrians: f64,
 }
 
 #[derive(Serialize)]
@@ -143,6 +148,12 @@ pub fn run(a: SimArgs) -> Result<()> {
             a.jam_timeout
         );
     }
+    if !(a.pedestrians.is_finite() && a.pedestrians >= 0.0) {
+        bail!(
+            "--pedestrians must be a number of crossings per minute >= 0, got {}",
+            a.pedestrians
+        );
+    }
     if !(a.spawn_distance_to_ego.is_finite() && a.spawn_distance_to_ego >= 0.0) {
         bail!(
             "--spawn-distance-to-ego must be a number of metres >= 0, got {}",
@@ -182,6 +193,12 @@ pub fn run(a: SimArgs) -> Result<()> {
         ..WorldConfig::default()
     };
     let mut world = World::new(net, config);
+    if a.pedestrians > 0.0 {
+        world.enable_pedestrians(trafficmesh_sim::pedestrians::PedestrianConfig {
+            per_minute: a.pedestrians,
+            ..Default::default()
+        });
+    }
     if let Some(path) = &a.spawn_config {
         let config = trafficmesh_maps::load_spawn_config(path)?;
         world

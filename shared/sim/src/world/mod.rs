@@ -10,6 +10,7 @@ mod phases;
 mod regroup;
 mod spawning;
 mod step;
+mod walkers;
 
 use glam::{DVec2, DVec3};
 use thiserror::Error;
@@ -130,6 +131,8 @@ pub struct World {
     events: Vec<SimEvent>,
     phase_times: PhaseTimes,
     wait_stats: jams::WaitStats,
+    /// Built-in walkers, when the world runs them itself (`sim`).
+    walkers: Option<walkers::Walkers>,
 }
 
 impl World {
@@ -165,6 +168,7 @@ impl World {
             events: Vec::new(),
             phase_times: PhaseTimes::default(),
             wait_stats: jams::WaitStats::default(),
+            walkers: None,
         }
     }
 

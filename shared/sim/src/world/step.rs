@@ -67,6 +67,7 @@ impl World {
         let dt = self.config.dt;
         self.phase_times.begin();
         self.lights.update(self.time);
+        self.step_walkers();
         self.phase_times.lap(Phase::Lights);
         // On the same lane index as spawning: a jammed vehicle is moved to
         // where a new one could spawn, and the spawns then keep clear of it.
