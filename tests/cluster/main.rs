@@ -604,11 +604,11 @@ fn cluster_toml_sets_the_npc_vehicle_config_and_the_spawn_distance() {
     });
 }
 
-/// The stepper drives at an imported map's own lane limits when cluster.toml
-/// says `speed_limit_source = "lanelet"` (cross.net.xml: 11.11, 15.28 and
-/// 19.44 m/s), and at the fixed 13.89 m/s otherwise.
+/// The stepper drives at an imported map's own lane limits (cross.net.xml:
+/// 11.11, 15.28 and 19.44 m/s) unless cluster.toml says
+/// `speed_limit_source = "fixed"`: then at the fixed 13.89 m/s.
 #[test]
-fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_when_told() {
+fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_unless_told() {
     let net = repo().join("../shared/maps/cross.net.xml");
     if !net.exists() {
         assert!(
@@ -620,8 +620,8 @@ fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_when_told() {
     }
     let net = net.canonicalize().unwrap();
     for (source, extra) in [
-        ("fixed", ""),
-        ("lanelet", "[vehicle]\nspeed_limit_source = \"lanelet\""),
+        ("fixed", "[vehicle]\nspeed_limit_source = \"fixed\""),
+        ("lanelet", ""),
     ] {
         let cluster = Cluster::start_on_with_admin(&format!("limits_{source}"), &net, extra, false);
         let top = runtime().block_on(async {

@@ -93,10 +93,13 @@ fn run(args: Args) -> Result<()> {
         seed: args.seed,
         dt: args.dt,
         jam_timeout: args.jam_timeout,
-        vehicle: args.vehicle.apply(trafficmesh_model::NpcVehicleConfig {
-            driver_model,
-            ..Default::default()
-        }),
+        vehicle: args.vehicle.apply(
+            trafficmesh_model::NpcVehicleConfig {
+                driver_model,
+                ..Default::default()
+            },
+            args.map.path(),
+        ),
         // The spawner's request carries the maximum; the world's own is unused.
         max_vehicles: usize::MAX,
         ..WorldConfig::default()

@@ -71,9 +71,10 @@ pub struct VehicleArgs {
     #[arg(long, default_value_t = NpcVehicleConfig::default().absolute_deceleration, allow_negative_numbers = true)]
     pub absolute_deceleration: f64,
     /// Where NORMAL-mode target speeds come from: one fixed speed, or each
-    /// lane's limit (`speedLimitSource`).
-    #[arg(long, value_enum, default_value_t = SpeedSource::Fixed)]
-    pub speed_limit_source: SpeedSource,
+    /// lane's limit (`speedLimitSource`). Default: the lanes' limits on
+    /// imported maps (SUMO, Lanelet2), fixed on native ones.
+    #[arg(long, value_enum)]
+    pub speed_limit_source: Option<SpeedSource>,
     /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
     #[arg(long, default_value_t = NpcVehicleConfig::default().fixed_speed_limit, allow_negative_numbers = true)]
     pub fixed_speed_limit: f64,
@@ -87,16 +88,17 @@ pub enum SpeedSource {
 }
 
 impl VehicleArgs {
-    /// `base` with these accelerations.
-    pub fn apply(&self, base: NpcVehicleConfig) -> NpcVehicleConfig {
+    /// `base` with these settings, for a run on `map`.
+    pub fn apply(&self, base: NpcVehicleConfig, map: &std::path::Path) -> NpcVehicleConfig {
         NpcVehicleConfig {
             acceleration: self.acceleration,
             deceleration: self.deceleration,
             sudden_deceleration: self.sudden_deceleration,
             absolute_deceleration: self.absolute_deceleration,
             speed_limit_source: match self.speed_limit_source {
-                SpeedSource::Fixed => SpeedLimitSource::FixedSpeedLimit,
-                SpeedSource::Lanelet => SpeedLimitSource::LaneletSpeedLimit,
+                Some(SpeedSource::Fixed) => SpeedLimitSource::FixedSpeedLimit,
+                Some(SpeedSource::Lanelet) => SpeedLimitSource::LaneletSpeedLimit,
+                None => crate::default_speed_limit_source(map),
             },
             fixed_speed_limit: self.fixed_speed_limit,
             ..base

@@ -75,6 +75,21 @@ pub fn default_driver_model(map: &std::path::Path) -> trafficmesh_model::DriverM
     trafficmesh_model::DriverModel::by_name(model).expect("a known model")
 }
 
+/// Where target speeds come from unless told: the lanes' own limits on
+/// imported maps (SUMO networks and scenarios, Lanelet2), which carry them,
+/// the fixed 13.89 m/s of the AWSIM reference on native maps.
+pub fn default_speed_limit_source(map: &std::path::Path) -> trafficmesh_model::SpeedLimitSource {
+    let name = map.to_string_lossy().to_lowercase();
+    let imported = [".net.xml", ".sumocfg", ".osm"]
+        .iter()
+        .any(|ext| name.ends_with(ext));
+    if imported {
+        trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit
+    } else {
+        trafficmesh_model::SpeedLimitSource::FixedSpeedLimit
+    }
+}
+
 /// Loads a map file and compiles it into the simulation's lane network, with
 /// every problem of the start-up checklist named.
 pub fn load_network(path: &std::path::Path) -> Result<trafficmesh_sim::LaneNetwork, FileError> {

@@ -163,17 +163,20 @@ pub fn run(a: SimArgs) -> Result<()> {
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
-    let vehicle = a.vehicle.apply(NpcVehicleConfig {
-        driver_model: a.driver_model.unwrap_or_else(|| {
-            trafficmesh_maps::default_driver_model(
-                a.sumocfg
-                    .as_deref()
-                    .or(a.map.as_deref())
-                    .expect("clap requires one"),
-            )
-        }),
-        ..NpcVehicleConfig::default()
-    });
+    let map_path = a
+        .sumocfg
+        .as_deref()
+        .or(a.map.as_deref())
+        .expect("clap requires one");
+    let vehicle = a.vehicle.apply(
+        NpcVehicleConfig {
+            driver_model: a
+                .driver_model
+                .unwrap_or_else(|| trafficmesh_maps::default_driver_model(map_path)),
+            ..NpcVehicleConfig::default()
+        },
+        map_path,
+    );
     vehicle.validate().map_err(anyhow::Error::msg)?;
     let (net, warnings, duration) = load(&a)?;
     for w in warnings {
