@@ -545,12 +545,13 @@ fn the_branch_csv_matches_the_statistics() {
             .as_u64()
             .is_some_and(|n| n >= 10)
     });
-    // Freeze the statistics: no vehicles, so no more decisions.
+    // Freeze the statistics: no vehicles, so no more decisions (a new seed
+    // is accepted on the way).
     let restarted = api.json(
         "POST",
         "/api/v1/restart",
         TOKEN,
-        &json!({"max_vehicles": 0}),
+        &json!({"max_vehicles": 0, "seed": 11}),
     );
     assert_eq!(restarted.status, 200, "{}", restarted.body);
     assert_eq!(restarted.json()["max_vehicles"], 0);

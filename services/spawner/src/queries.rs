@@ -111,7 +111,7 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
             let Some(request) = bus.query_payload::<RestartRequest>(query).await else {
                 return;
             };
-            s.state().restart(request.max_vehicles);
+            s.state().restart(request.max_vehicles, request.seed);
             let key = bus.keys().stepper("restart");
             match bus
                 .get::<_, RestartAnswer>(&key, Some(&request), Duration::from_secs(3))

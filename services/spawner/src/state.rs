@@ -202,8 +202,8 @@ impl SpawnerState {
     }
 
     /// Restart: the simulators start over with a new maximum.
-    pub fn restart(&mut self, max_vehicles: usize) {
-        self.manager.restart(&self.net);
+    pub fn restart(&mut self, max_vehicles: usize, seed: Option<u64>) {
+        self.manager.restart(&self.net, seed);
         self.max_vehicles = max_vehicles;
     }
 }

@@ -66,7 +66,7 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
                 Request::Remove(target) => remove(world, target).map(json),
                 Request::Restart(r) => {
                     let disposed = world.vehicles().len();
-                    world.restart(r.max_vehicles);
+                    world.restart(r.max_vehicles, r.seed);
                     Ok(json(RestartAnswer {
                         disposed,
                         max_vehicles: r.max_vehicles,

@@ -251,7 +251,7 @@ fn restart_resets_state_with_the_new_maximum() {
     );
     assert!(run_until(&mut w, 60.0, |w| w.vehicles().len() == 12));
     let before = w.vehicles().iter().map(|v| v.id).max().unwrap();
-    w.restart(3);
+    w.restart(3, None);
     assert!(w.vehicles().is_empty());
     let mut peak = 0;
     run_for(&mut w, 60.0);
@@ -330,4 +330,26 @@ fn remove_around_an_ego_on_an_elevated_road_uses_its_height() {
         w.vehicle(target.id).is_none(),
         "the vehicle at the ego is gone"
     );
+}
+
+/// Restart with a new seed draws what follows from other random streams,
+/// the same ones for the same seed; without one the run's seed goes on.
+#[test]
+fn restart_with_a_new_seed_changes_what_follows_deterministically() {
+    let run = |seed: Option<u64>| {
+        let mut w = world(
+            &forks(),
+            WorldConfig {
+                max_vehicles: 60,
+                ..WorldConfig::default()
+            },
+        );
+        run_for(&mut w, 30.0);
+        w.restart(60, seed);
+        run_for(&mut w, 60.0);
+        w.trajectory_hash()
+    };
+    assert_eq!(run(Some(9)), run(Some(9)), "the same seed, the same run");
+    assert_ne!(run(Some(9)), run(None), "a new seed, other traffic");
+    assert_eq!(run(None), run(None));
 }

@@ -198,6 +198,9 @@ pub async fn remove(
 pub struct Restart {
     /// The new maximum vehicle count.
     pub max_vehicles: usize,
+    /// A new random seed for what follows; unset keeps the run's.
+    #[serde(default)]
+    pub seed: Option<u64>,
 }
 
 #[derive(Serialize, Deserialize, ToSchema)]
@@ -218,6 +221,7 @@ pub async fn restart(
     let key = app.bus.keys().spawner("restart");
     let request = RestartRequest {
         max_vehicles: r.max_vehicles,
+        seed: r.seed,
     };
     let answer: RestartAnswer = app.bus.get(&key, Some(&request), app.bus_timeout).await?;
     Ok(Json(Restarted {

@@ -122,6 +122,9 @@ pub struct RemoveAnswer {
 #[serde(deny_unknown_fields)]
 pub struct RestartRequest {
     pub max_vehicles: usize,
+    /// A new random seed for what follows; None keeps the run's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed: Option<u64>,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

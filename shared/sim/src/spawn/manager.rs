@@ -123,8 +123,11 @@ impl SpawnManager {
 
     /// Restart: the map's simulators start over with fresh streams; added ones
     /// stay; priorities and rate-limit clocks are cleared.
-    pub fn restart(&mut self, net: &LaneNetwork) {
+    pub fn restart(&mut self, net: &LaneNetwork, seed: Option<u64>) {
         self.generation += 1;
+        if let Some(seed) = seed {
+            self.seed = seed;
+        }
         let extra: Vec<_> = self
             .simulators
             .drain(..)

@@ -429,7 +429,8 @@ impl World {
     /// Restart: disposes of every vehicle, pending spawn and rate-limit state and
     /// starts again with a new maximum vehicle count. The ego, the spawn config,
     /// the branch statistics and added simulators are kept; ids keep counting.
-    pub fn restart(&mut self, max_vehicles: usize) {
+    /// A new `seed` draws what follows from other random streams.
+    pub fn restart(&mut self, max_vehicles: usize, seed: Option<u64>) {
         self.drop_prefollowed();
         let time = self.time;
         let trips = self
@@ -438,7 +439,10 @@ impl World {
             .map(|v| step::trip_record(&self.net, &v, time, DespawnReason::Restart))
             .collect();
         step::push_despawns(&mut self.events, trips);
-        self.spawner.restart(&self.net);
+        self.spawner.restart(&self.net, seed);
+        if let Some(seed) = seed {
+            self.config.seed = seed;
+        }
         self.config.max_vehicles = max_vehicles;
         self.index = LaneIndex::empty(self.net.lanes.len());
     }
