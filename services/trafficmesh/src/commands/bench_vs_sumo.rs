@@ -317,7 +317,8 @@ fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures
     if let Some(end) = a.run_length() {
         cmd.args(["--duration", &end.to_string()]);
     }
-    cmd.args(["--json", "--out"]).arg(&out);
+    // SUMO's side has no built-in walkers: neither has ours.
+    cmd.args(["--pedestrians", "0", "--json", "--out"]).arg(&out);
     let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(scratch.join("stdout"))?)?;

@@ -76,7 +76,7 @@ pub struct SimArgs {
     /// Built-in walkers and cyclists starting across each crosswalk per minute
     /// (the cluster's pedestrians service, run in this process; a fifth of
     /// them cyclists, deterministic by seed); 0 = none.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    #[arg(long, default_value_t = trafficmesh_sim::pedestrians::PedestrianConfig::default().per_minute, allow_negative_numbers = true)]
     pedestrians: f64,
 }
 
