@@ -318,7 +318,8 @@ fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures
         cmd.args(["--duration", &end.to_string()]);
     }
     // SUMO's side has no built-in walkers: neither has ours.
-    cmd.args(["--pedestrians", "0", "--json", "--out"]).arg(&out);
+    cmd.args(["--pedestrians", "0", "--json", "--out"])
+        .arg(&out);
     let (wall, memory, instructions) = run_measured(cmd, perf, scratch)?;
     let s: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(scratch.join("stdout"))?)?;
