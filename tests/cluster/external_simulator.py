@@ -12,10 +12,12 @@ Usage: external_simulator.py ENDPOINT CLUSTER MAP_JSON. Prints OK and exits 0 wh
 """
 import json
 import math
+import os
 import struct
 import sys
 import threading
 import time
+import traceback
 
 import zenoh
 
@@ -25,8 +27,17 @@ JSON = zenoh.Encoding.APPLICATION_JSON
 
 
 def fail(msg):
-    print("FAIL:", msg)
-    sys.exit(1)
+    print("FAIL:", msg, flush=True)
+    # At once: an open Zenoh session's threads would keep the process alive.
+    os._exit(1)
+
+
+def on_uncaught(kind, value, tb):
+    traceback.print_exception(kind, value, tb)
+    fail(f"uncaught {kind.__name__}: {value}")
+
+
+sys.excepthook = on_uncaught
 
 
 conf = zenoh.Config()
@@ -152,6 +163,7 @@ before = {lane["name"]: [] for lane in lanes}
 for lane in lanes:
     for n in lane["next"]:
         before[n].append(lane["name"])
+wait("a vehicle batch with five vehicles", lambda: any(len(b["vehicles"]) >= 5 for b in batches), 60)
 with lock:
     batch = next(b for b in reversed(batches) if len(b["vehicles"]) >= 5)
 for v in batch["vehicles"]:
