@@ -1,5 +1,9 @@
 //! End-to-end tests of the `trafficmesh` binary, run the way a user runs it.
 
+#[path = "../cluster/support.rs"]
+#[allow(dead_code)]
+mod support;
+
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
@@ -457,14 +461,6 @@ fn cluster_toml(dir: &Path, map: &Path, spawn_config: &Path, port: u16, extra: &
     path
 }
 
-fn free_port() -> u16 {
-    std::net::TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
-
 /// `trafficmesh up` with these arguments, stopped with SIGINT after `secs`
 /// unless it ends first: (exit code, stderr, whether it ended by itself).
 fn up_for(args: &[&std::ffi::OsStr], secs: f64) -> (Option<i32>, String, bool) {
@@ -500,12 +496,12 @@ fn up_for(args: &[&std::ffi::OsStr], secs: f64) -> (Option<i32>, String, bool) {
 /// the fix, and nothing started.
 #[test]
 fn up_refuses_a_bad_configuration_at_once_and_starts_nothing() {
-    let Some(net) = shared_cross_net() else {
+    let Some(net) = cross_net() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
     let spawn = repo_file("configs/traffic_spawn.json");
-    let toml = cluster_toml(dir.path(), &net, &spawn, free_port(), "");
+    let toml = cluster_toml(dir.path(), &net, &spawn, support::free_port(), "");
     let (code, stderr, ended) = up_for(&["--config".as_ref(), toml.as_os_str()], 10.0);
     assert!(ended, "up did not exit: {stderr}");
     assert_eq!(code, Some(2), "{stderr}");
@@ -521,7 +517,7 @@ fn up_refuses_a_bad_configuration_at_once_and_starts_nothing() {
         dir.path(),
         &repo_file("configs/maps/four_way.map.json"),
         &spawn,
-        free_port(),
+        support::free_port(),
         "",
     );
     let text = std::fs::read_to_string(&toml)
@@ -545,7 +541,7 @@ fn up_refuses_a_bad_configuration_at_once_and_starts_nothing() {
 /// config and says so; nothing exits or is restarted.
 #[test]
 fn up_with_a_map_of_ones_own_starts_with_an_empty_spawn_config() {
-    let Some(net) = shared_cross_net() else {
+    let Some(net) = cross_net() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -555,7 +551,7 @@ fn up_with_a_map_of_ones_own_starts_with_an_empty_spawn_config() {
         dir.path(),
         &repo_file("configs/maps/four_way.map.json"),
         &spawn,
-        free_port(),
+        support::free_port(),
         "",
     );
     let (code, stderr, ended) = up_for(
@@ -600,7 +596,7 @@ fn up_stops_the_cluster_when_a_service_cannot_run_with_its_configuration() {
         dir.path(),
         &repo_file("configs/maps/four_way.map.json"),
         &repo_file("configs/traffic_spawn.json"),
-        free_port(),
+        support::free_port(),
         "",
     );
     let text = std::fs::read_to_string(&toml).unwrap().replace(
@@ -621,19 +617,9 @@ fn up_stops_the_cluster_when_a_service_cannot_run_with_its_configuration() {
     );
 }
 
-/// `../shared/maps/cross.net.xml`; None (skipped) where it is missing and
-/// not required.
-fn shared_cross_net() -> Option<PathBuf> {
-    let path = repo_file("../shared/maps/cross.net.xml");
-    if path.exists() {
-        return Some(path.canonicalize().unwrap());
-    }
-    assert!(
-        std::env::var_os("TRAFFICMESH_REQUIRE_SHARED").is_none(),
-        "{} is missing",
-        path.display()
-    );
-    None
+/// `../shared/maps/cross.net.xml`, by its absolute path (`up` runs elsewhere).
+fn cross_net() -> Option<PathBuf> {
+    support::shared_map("cross.net.xml").map(|p| p.canonicalize().unwrap())
 }
 
 /// AWSIM's NPCVehicleConfig is a setting: `sim` takes the four accelerations

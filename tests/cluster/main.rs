@@ -609,15 +609,9 @@ fn cluster_toml_sets_the_npc_vehicle_config_and_the_spawn_distance() {
 /// `speed_limit_source = "fixed"`: then at the fixed 13.89 m/s.
 #[test]
 fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_unless_told() {
-    let net = repo().join("../shared/maps/cross.net.xml");
-    if !net.exists() {
-        assert!(
-            std::env::var_os("TRAFFICMESH_REQUIRE_SHARED").is_none(),
-            "{} is missing",
-            net.display()
-        );
+    let Some(net) = shared_map("cross.net.xml") else {
         return;
-    }
+    };
     let net = net.canonicalize().unwrap();
     for (source, extra) in [
         ("fixed", "[vehicle]\nspeed_limit_source = \"fixed\""),

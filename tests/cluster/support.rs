@@ -19,7 +19,24 @@ pub fn four_way() -> PathBuf {
     repo().join("configs/maps/four_way.map.json")
 }
 
-fn free_port() -> u16 {
+/// `../shared/maps/<name>`; a notice and None when the folder is absent,
+/// unless TRAFFICMESH_REQUIRE_SHARED=1 (CI) makes that a failure.
+pub fn shared_map(name: &str) -> Option<PathBuf> {
+    let path = repo().join("../shared/maps").join(name);
+    if path.exists() {
+        return Some(path);
+    }
+    if std::env::var("TRAFFICMESH_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
+        panic!(
+            "TRAFFICMESH_REQUIRE_SHARED=1 but {} is missing",
+            path.display()
+        );
+    }
+    eprintln!("NOTICE: skipped: {} is absent", path.display());
+    None
+}
+
+pub fn free_port() -> u16 {
     trafficmesh_bus::free_loopback_port().expect("a free loopback port")
 }
 

@@ -11,31 +11,11 @@ mod support;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use support::{repo, shared_map};
 use trafficmesh_model::LightColor;
 use trafficmesh_sim::crosswalk::OccupantType;
 use trafficmesh_sim::geometry::point_in_polygon;
 use trafficmesh_sim::{SimEvent, World, WorldConfig};
-
-fn repo() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
-}
-
-/// `../shared/maps/<name>`; a notice and None when the folder is absent,
-/// unless TRAFFICMESH_REQUIRE_SHARED=1 (CI) makes that a failure.
-fn shared_map(name: &str) -> Option<PathBuf> {
-    let path = repo().join("../shared/maps").join(name);
-    if path.exists() {
-        return Some(path);
-    }
-    if std::env::var("TRAFFICMESH_REQUIRE_SHARED").is_ok_and(|v| v == "1") {
-        panic!(
-            "TRAFFICMESH_REQUIRE_SHARED=1 but {} is missing",
-            path.display()
-        );
-    }
-    eprintln!("NOTICE: skipped: {} is absent", path.display());
-    None
-}
 
 /// Runs one of the Python checkers beside this file; it must print OK.
 fn python_check(python: &str, script: &str, args: &[&Path]) {
@@ -885,6 +865,29 @@ fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
     netconvert(dir, node_type, &nodes, &edges, &[])
 }
 
+/// Flows (id, edges, vehicles an hour) on `netconvert_cross`'s junction:
+/// from every arm straight on, left and right, `per_hour` each.
+fn every_movement_of_the_cross(per_hour: u32) -> Vec<(String, String, u32)> {
+    // (arm, straight, left, right) for traffic driving on the right.
+    let arms = [
+        ("W", "CE", "CN", "CS"),
+        ("E", "CW", "CS", "CN"),
+        ("N", "CS", "CE", "CW"),
+        ("S", "CN", "CW", "CE"),
+    ];
+    let mut flows = Vec::new();
+    for (arm, straight, left, right) in arms {
+        for (movement, out) in [("s", straight), ("l", left), ("r", right)] {
+            flows.push((
+                format!("{arm}{movement}"),
+                format!("{arm}C {out}"),
+                per_hour,
+            ));
+        }
+    }
+    flows
+}
+
 /// Runs `flows` (id, edges, vehicles an hour, from 0 to 600 s) on `net` with
 /// the realistic model until every vehicle has left, checking for overlaps
 /// on the way: (inserted, arrived, the world at the end).
@@ -940,19 +943,7 @@ fn a_right_before_left_junction_with_every_arm_queued_lets_everybody_through() {
     let Some(net) = netconvert_cross(dir.path(), "right_before_left") else {
         return;
     };
-    // (arm, straight, left, right) for traffic driving on the right.
-    let arms = [
-        ("W", "CE", "CN", "CS"),
-        ("E", "CW", "CS", "CN"),
-        ("N", "CS", "CE", "CW"),
-        ("S", "CN", "CW", "CE"),
-    ];
-    let mut flows = Vec::new();
-    for (arm, straight, left, right) in arms {
-        for (movement, out) in [("s", straight), ("l", left), ("r", right)] {
-            flows.push((format!("{arm}{movement}"), format!("{arm}C {out}"), 100));
-        }
-    }
+    let flows = every_movement_of_the_cross(100);
     let (inserted, arrived, w) = run_flows(&net, &flows, "right-before-left junction");
     // 12 flows of 100 an hour from 0 to 600 s: a departure every 36 s, 17 each.
     assert_eq!(inserted, 204, "the demand");
@@ -1119,18 +1110,7 @@ fn a_priority_junction_with_every_approach_queued_lets_everybody_through() {
     let Some(net) = netconvert_cross(dir.path(), "priority") else {
         return;
     };
-    let arms = [
-        ("W", "CE", "CN", "CS"),
-        ("E", "CW", "CS", "CN"),
-        ("N", "CS", "CE", "CW"),
-        ("S", "CN", "CW", "CE"),
-    ];
-    let mut flows = Vec::new();
-    for (arm, straight, left, right) in arms {
-        for (movement, out) in [("s", straight), ("l", left), ("r", right)] {
-            flows.push((format!("{arm}{movement}"), format!("{arm}C {out}"), 100));
-        }
-    }
+    let flows = every_movement_of_the_cross(100);
     let (inserted, arrived, w) = run_flows(&net, &flows, "priority junction");
     assert_eq!(inserted, 204, "the demand");
     assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());

@@ -42,9 +42,8 @@ struct Args {
     /// that a timetable's vehicles all depart, as in SUMO.
     #[arg(long)]
     max_vehicles: Option<usize>,
-    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
-    #[arg(long, default_value_t = trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
-    spawn_distance_to_ego: f64,
+    #[command(flatten)]
+    spawn_distance: trafficmesh_maps::SpawnDistanceArgs,
     /// Spawn config (the seed's traffic_spawn.json): loaded at start if it
     /// exists, and the file that save and load use.
     #[arg(long, default_value = "traffic_spawn.json")]
@@ -90,14 +89,9 @@ fn run(args: Args) -> Result<()> {
     let max_vehicles = args
         .max_vehicles
         .unwrap_or(trafficmesh_sim::world::default_max_vehicles(timetable));
-    if !(args.spawn_distance_to_ego.is_finite() && args.spawn_distance_to_ego >= 0.0) {
-        anyhow::bail!(
-            "--spawn-distance-to-ego must be a number of metres >= 0, got {}",
-            args.spawn_distance_to_ego
-        );
-    }
+    let spawn_distance_to_ego = args.spawn_distance.checked().map_err(anyhow::Error::msg)?;
     let mut state = SpawnerState::new(net, args.seed, max_vehicles);
-    state.spawn_distance_to_ego = args.spawn_distance_to_ego;
+    state.spawn_distance_to_ego = spawn_distance_to_ego;
     if args.spawn_config.exists() {
         let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;
         state.set_config(config).map_err(|problems| {

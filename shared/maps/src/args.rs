@@ -80,8 +80,9 @@ pub struct VehicleArgs {
     pub fixed_speed_limit: f64,
 }
 
-/// The seed's SpeedLimitSource, as the flags name it.
-#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+/// The seed's SpeedLimitSource, as the flags and cluster.toml name it.
+#[derive(Clone, Copy, Debug, clap::ValueEnum, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum SpeedSource {
     Fixed,
     Lanelet,
@@ -102,6 +103,28 @@ impl VehicleArgs {
             },
             fixed_speed_limit: self.fixed_speed_limit,
             ..base
+        }
+    }
+}
+
+/// AWSIM's spawnDistanceToEgo, as `sim` and the spawner take it.
+#[derive(clap::Args, Clone, Debug)]
+pub struct SpawnDistanceArgs {
+    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
+    #[arg(long, default_value_t = trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
+    pub spawn_distance_to_ego: f64,
+}
+
+impl SpawnDistanceArgs {
+    /// The distance, or what is wrong with it.
+    pub fn checked(&self) -> Result<f64, String> {
+        let d = self.spawn_distance_to_ego;
+        if d.is_finite() && d >= 0.0 {
+            Ok(d)
+        } else {
+            Err(format!(
+                "--spawn-distance-to-ego must be a number of metres >= 0, got {d}"
+            ))
         }
     }
 }

@@ -134,26 +134,22 @@ pub fn load_routes(path: &Path, map: &MapFile) -> Result<crate::sumo_routes::Dem
 /// As `load_map`, with the warnings of a foreign format's import.
 pub fn import_map(path: &Path) -> Result<Imported, FileError> {
     let text = read(path)?;
-    let file_name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().to_lowercase())
-        .unwrap_or_default();
-    let stem = file_name.split('.').next().unwrap_or("").to_string();
-    let imported = if file_name.ends_with(".net.xml") {
-        crate::sumo::import(&stem, &text).map_err(|source| FileError::Import {
-            path: path.to_owned(),
-            source,
-        })?
-    } else if file_name.ends_with(".osm") {
-        crate::lanelet2::import(&stem, &text).map_err(|source| FileError::Import {
-            path: path.to_owned(),
-            source,
-        })?
-    } else {
-        return Ok(Imported {
-            map: parse_map(path, &text)?,
-            warnings: Vec::new(),
-        });
+    let stem = crate::map_stem(path);
+    let import_error = |source| FileError::Import {
+        path: path.to_owned(),
+        source,
+    };
+    let imported = match crate::MapFormat::of(path) {
+        crate::MapFormat::Sumo => crate::sumo::import(&stem, &text).map_err(import_error)?,
+        crate::MapFormat::Lanelet2 => {
+            crate::lanelet2::import(&stem, &text).map_err(import_error)?
+        }
+        crate::MapFormat::Native | crate::MapFormat::SumoScenario => {
+            return Ok(Imported {
+                map: parse_map(path, &text)?,
+                warnings: Vec::new(),
+            });
+        }
     };
     imported
         .map

@@ -319,7 +319,10 @@ impl<'m> DemandBuilder<'m> {
         self.add_types(doc)?;
         let root = doc.root_element();
         let mut routes: HashMap<&str, Vec<&str>> = HashMap::new();
-        let mut lane_routes: HashMap<(Vec<&str>, String), Option<Vec<String>>> = HashMap::new();
+        // Lane routes by vehicle class, then by edge route: a flow's
+        // departures share one.
+        let mut lane_routes: HashMap<String, HashMap<Vec<&str>, Option<Vec<String>>>> =
+            HashMap::new();
         for n in root.children().filter(|n| n.is_element()) {
             let tag = n.tag_name().name();
             match tag {
@@ -375,11 +378,11 @@ impl<'m> DemandBuilder<'m> {
                 }
                 let prefab = self.kind_for(vehicle_type.as_deref(), id, k);
                 let class = self.class_of(&prefab);
-                let net = &self.net;
-                let route = lane_routes
-                    .entry((edges.clone(), class.clone()))
-                    .or_insert_with(|| net.lane_route(&edges, &class));
-                let Some(route) = route else {
+                let by_edges = lane_routes.entry(class.clone()).or_default();
+                if !by_edges.contains_key(&edges) {
+                    by_edges.insert(edges.clone(), self.net.lane_route(&edges, &class));
+                }
+                let Some(route) = &by_edges[&edges] else {
                     connected = false;
                     continue;
                 };

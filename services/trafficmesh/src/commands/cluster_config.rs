@@ -111,8 +111,8 @@ pub struct VehicleSection {
     pub deceleration: Option<f64>,
     pub sudden_deceleration: Option<f64>,
     pub absolute_deceleration: Option<f64>,
-    /// `fixed` or `lanelet` (each lane's limit); unset: fixed.
-    pub speed_limit_source: Option<String>,
+    /// `fixed` or `lanelet` (each lane's limit); unset: the map's default.
+    pub speed_limit_source: Option<trafficmesh_maps::SpeedSource>,
     pub fixed_speed_limit: Option<f64>,
 }
 
@@ -317,12 +317,6 @@ impl ClusterConfig {
                 &format!("vehicle.{name} must be a positive number, got {v}"),
             );
         }
-        if let Some(source) = &self.vehicle.speed_limit_source {
-            check(
-                matches!(source.as_str(), "fixed" | "lanelet"),
-                &format!("vehicle.speed_limit_source must be fixed or lanelet, got '{source}'"),
-            );
-        }
         if let Some(d) = self.spawner.spawn_distance_to_ego {
             check(
                 d.is_finite() && d >= 0.0,
@@ -396,8 +390,9 @@ impl ClusterConfig {
         for (_, flag, v) in self.vehicle.set() {
             stepper.extend([flag.into(), v.to_string()]);
         }
-        if let Some(source) = &self.vehicle.speed_limit_source {
-            stepper.extend(["--speed-limit-source".into(), source.clone()]);
+        if let Some(source) = self.vehicle.speed_limit_source {
+            let flag = clap::ValueEnum::to_possible_value(&source).expect("no variant is skipped");
+            stepper.extend(["--speed-limit-source".into(), flag.get_name().to_string()]);
         }
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),

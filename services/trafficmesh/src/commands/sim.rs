@@ -70,9 +70,8 @@ pub struct SimArgs {
     driver_model: Option<DriverModel>,
     #[command(flatten)]
     vehicle: trafficmesh_maps::VehicleArgs,
-    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
-    #[arg(long, default_value_t = WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
-    spawn_distance_to_ego: f64,
+    #[command(flatten)]
+    spawn_distance: trafficmesh_maps::SpawnDistanceArgs,
     /// Built-in walkers and cyclists starting across each crosswalk per minute
     /// (the cluster's pedestrians service, run in this process; a fifth of
     /// them cyclists, deterministic by seed); 0 = none.
@@ -154,12 +153,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             a.pedestrians
         );
     }
-    if !(a.spawn_distance_to_ego.is_finite() && a.spawn_distance_to_ego >= 0.0) {
-        bail!(
-            "--spawn-distance-to-ego must be a number of metres >= 0, got {}",
-            a.spawn_distance_to_ego
-        );
-    }
+    let spawn_distance_to_ego = a.spawn_distance.checked().map_err(anyhow::Error::msg)?;
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }
@@ -192,7 +186,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         dt: a.dt,
         vehicle,
         jam_timeout: a.jam_timeout,
-        spawn_distance_to_ego: a.spawn_distance_to_ego,
+        spawn_distance_to_ego,
         ..WorldConfig::default()
     };
     let mut world = World::new(net, config);

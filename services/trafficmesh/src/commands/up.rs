@@ -132,17 +132,10 @@ fn check_spawn_config(
             map.display()
         );
     }
-    let stem = map
-        .file_name()
-        .map(|f| {
-            f.to_string_lossy()
-                .split('.')
-                .next()
-                .unwrap_or("map")
-                .to_string()
-        })
-        .unwrap_or_else(|| "map".into());
-    let own = path.with_file_name(format!("traffic_spawn.{stem}.json"));
+    let own = path.with_file_name(format!(
+        "traffic_spawn.{}.json",
+        trafficmesh_maps::map_stem(&map)
+    ));
     if let Err(problem) = lanes_ok(&own)? {
         bail!(
             "{}: {problem}\n  fix: correct or remove that file (the spawn config kept for {})",
