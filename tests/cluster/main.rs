@@ -5,6 +5,8 @@
 #[allow(dead_code)]
 mod support;
 
+mod lockstep;
+
 use std::collections::HashSet;
 use std::time::{Duration, Instant};
 

@@ -73,10 +73,27 @@ impl Cluster {
             &four_way(),
             spawner,
             pedestrians,
-            stepper_speed,
+            &format!("speed = {stepper_speed}"),
             backoff_ms,
             false,
         )
+    }
+
+    /// As `start`, with `stepper` as the body of cluster.toml's `[stepper]`.
+    pub fn start_stepper(test: &str, stepper: &str, pedestrians: bool) -> Cluster {
+        Self::launch(test, &four_way(), "", pedestrians, stepper, 200, false)
+    }
+
+    /// Waits for `up` to exit by itself; its exit status, or None on timeout.
+    pub fn wait_exit(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
+        let deadline = Instant::now() + timeout;
+        while Instant::now() < deadline {
+            if let Ok(Some(status)) = self.child.try_wait() {
+                return Some(status);
+            }
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        None
     }
 
     /// As `start`, with the REST admin on a free port (token [`TOKEN`]).
@@ -91,7 +108,7 @@ impl Cluster {
         spawner: &str,
         pedestrians: bool,
     ) -> Cluster {
-        let cluster = Self::launch(test, map, spawner, pedestrians, 1.0, 200, true);
+        let cluster = Self::launch(test, map, spawner, pedestrians, "speed = 1", 200, true);
         cluster.wait_for_admin();
         cluster
     }
@@ -101,7 +118,7 @@ impl Cluster {
         map: &Path,
         spawner: &str,
         pedestrians: bool,
-        stepper_speed: f64,
+        stepper: &str,
         backoff_ms: u64,
         with_admin: bool,
     ) -> Cluster {
@@ -121,7 +138,7 @@ impl Cluster {
 endpoint = "{endpoint}"
 seed = 7
 [stepper]
-speed = {stepper_speed}
+{stepper}
 [spawner]
 spawn_config = "{dir}/traffic_spawn.json"
 branch_csv = "{dir}/traffic_branch_decisions.csv"

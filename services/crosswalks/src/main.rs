@@ -3,7 +3,7 @@
 //! one count per root); occupancy goes out on change with a heartbeat that
 //! keeps it valid; the blocked-stop query is answered here.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -14,7 +14,8 @@ use glam::DVec2;
 use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
 use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{
-    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy,
+    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, LockstepTick,
+    TickReport,
 };
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
@@ -39,6 +40,15 @@ struct Args {
     /// Wall-clock seconds after which a silent agent source is forgotten.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     source_timeout: f64,
+    /// Advance on the stepper's lockstep questions instead of its clock
+    /// (answers on <cluster>/lockstep/step/crosswalks), asking the agent
+    /// sources in step (<cluster>/lockstep/agents/*) for each tick's agents.
+    #[arg(long)]
+    lockstep: bool,
+    /// With --lockstep: agent sources no tick is answered without,
+    /// comma-separated (e.g. pedestrians).
+    #[arg(long, value_delimiter = ',', requires = "lockstep")]
+    lockstep_sources: Vec<String>,
 }
 
 struct Areas {
@@ -46,6 +56,9 @@ struct Areas {
     occupancy: Occupancy,
     agents: AgentOccupancy,
     last_heard: BTreeMap<String, Instant>,
+    /// Sources whose agents come with their lockstep answers; their ordinary
+    /// publications are ignored.
+    in_step: BTreeSet<String>,
     time: f64,
 }
 
@@ -88,6 +101,7 @@ fn run(args: Args) -> Result<()> {
         occupancy,
         agents,
         last_heard: BTreeMap::new(),
+        in_step: BTreeSet::new(),
         time: 0.0,
     }));
     let validity = args.validity;
@@ -112,8 +126,16 @@ fn run(args: Args) -> Result<()> {
         );
         tokio::spawn(take_agents(bus.clone(), areas.clone(), validity));
         tokio::spawn(answer_queries(bus.clone(), areas.clone(), validity));
+        let advance = async {
+            if args.lockstep {
+                let sources = (args.lockstep_sources, timeout);
+                follow_lockstep(bus.clone(), areas.clone(), validity, sources).await
+            } else {
+                follow_clock(bus.clone(), areas.clone(), validity, timeout).await
+            }
+        };
         tokio::select! {
-            r = follow_clock(bus.clone(), areas.clone(), validity, timeout) => r?,
+            r = advance => r?,
             _ = runtime::shutdown_signal() => {}
         }
         Ok(())
@@ -125,6 +147,110 @@ async fn publish(bus: &Bus, states: Vec<CrosswalkOccupancy>) {
         if let Err(e) = bus.put(&bus.keys().occupancy(&s.area), &s).await {
             tracing::warn!("cannot publish occupancy: {e}");
         }
+    }
+}
+
+fn poses(batch: &AgentBatch) -> Vec<AgentPose> {
+    batch
+        .agents
+        .iter()
+        .map(|a| AgentPose {
+            id: a.id.clone(),
+            root: a.root.clone(),
+            kind: OccupantType::parse(&a.kind),
+            footprint: a.footprint.iter().map(|p| DVec2::new(p[0], p[1])).collect(),
+        })
+        .collect()
+}
+
+/// In lockstep: for each tick, the agents of every source in step (asked
+/// again until the required ones answered), then the areas that changed go
+/// to the stepper with the answer, and on the occupancy keys for everyone else.
+async fn follow_lockstep(
+    bus: Arc<Bus>,
+    areas: Arc<Mutex<Areas>>,
+    validity: f64,
+    (required, timeout): (Vec<String>, Duration),
+) -> Result<()> {
+    let key = bus.keys().lockstep_member("crosswalks");
+    let sources_key = bus.keys().lockstep_all_agents();
+    bus.answer_ticks(&key, |mut tick| {
+        let (bus, areas, required, sources_key) = (
+            bus.clone(),
+            areas.clone(),
+            required.clone(),
+            sources_key.clone(),
+        );
+        async move {
+            tick.spawn_verdicts.clear();
+            let batches = agents_in_step(&bus, &sources_key, &tick, &required).await;
+            let changed = {
+                let mut guard = areas.lock().expect("areas lock");
+                let a = &mut *guard;
+                a.time = tick.time;
+                // Sources that are not in step publish as they please.
+                let mut changed = drop_silent(a, timeout);
+                for (source, batch) in &batches {
+                    if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
+                        bus.reject(&bus.keys().lockstep_agents(source), &problem);
+                        continue;
+                    }
+                    a.in_step.insert(source.clone());
+                    changed.extend(a.agents.update_source(
+                        &a.net.crosswalks,
+                        &mut a.occupancy,
+                        source,
+                        &poses(batch),
+                    ));
+                }
+                changed
+                    .into_iter()
+                    .map(|i| a.state(i, validity))
+                    .collect::<Vec<_>>()
+            };
+            publish(&bus, changed.clone()).await;
+            TickReport::Crosswalks {
+                changed,
+                valid_until: tick.time + validity,
+            }
+        }
+    })
+    .await?;
+    Ok(())
+}
+
+/// Every agent source's answer to `tick`, asked again until the required
+/// sources have answered.
+async fn agents_in_step(
+    bus: &Bus,
+    key: &str,
+    tick: &LockstepTick,
+    required: &[String],
+) -> BTreeMap<String, AgentBatch> {
+    let mut waited = false;
+    loop {
+        let missing = match bus.lockstep_round::<AgentBatch>(key, tick).await {
+            Ok(batches) => {
+                let missing: Vec<&str> = required
+                    .iter()
+                    .filter(|s| !batches.contains_key(*s))
+                    .map(String::as_str)
+                    .collect();
+                if missing.is_empty() {
+                    return batches;
+                }
+                missing.join(", ")
+            }
+            Err(e) => e.to_string(),
+        };
+        if !waited {
+            tracing::warn!(
+                "lockstep: tick {} waits for the agents of {missing}",
+                tick.tick
+            );
+            waited = true;
+        }
+        tokio::time::sleep(Duration::from_millis(100)).await;
     }
 }
 
@@ -145,19 +271,13 @@ async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
             continue;
         }
         let source = Keys::last_chunk(&key).to_string();
-        let poses: Vec<AgentPose> = batch
-            .agents
-            .iter()
-            .map(|a| AgentPose {
-                id: a.id.clone(),
-                root: a.root.clone(),
-                kind: OccupantType::parse(&a.kind),
-                footprint: a.footprint.iter().map(|p| DVec2::new(p[0], p[1])).collect(),
-            })
-            .collect();
+        let poses = poses(&batch);
         let changed = {
             let mut guard = areas.lock().expect("areas lock");
             let a = &mut *guard;
+            if a.in_step.contains(&source) {
+                continue;
+            }
             a.last_heard.insert(source.clone(), Instant::now());
             let changed =
                 a.agents
@@ -166,6 +286,27 @@ async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
         };
         publish(&bus, changed).await;
     }
+}
+
+/// Forgets the sources silent for longer than `timeout` (wall time); returns
+/// the areas that changed.
+fn drop_silent(a: &mut Areas, timeout: Duration) -> BTreeSet<usize> {
+    let silent: Vec<String> = a
+        .last_heard
+        .iter()
+        .filter(|(_, at)| at.elapsed() > timeout)
+        .map(|(s, _)| s.clone())
+        .collect();
+    let mut changed = BTreeSet::new();
+    for s in silent {
+        tracing::info!("agent source '{s}' went quiet; its agents are gone");
+        a.last_heard.remove(&s);
+        changed.extend(
+            a.agents
+                .drop_source(&a.net.crosswalks, &mut a.occupancy, &s),
+        );
+    }
+    changed
 }
 
 /// Heartbeats on the stepper's clock, and forgetting silent sources.
@@ -186,22 +327,7 @@ async fn follow_clock(
             let mut guard = areas.lock().expect("areas lock");
             let a = &mut *guard;
             a.time = c.time;
-            let silent: Vec<String> = a
-                .last_heard
-                .iter()
-                .filter(|(_, at)| at.elapsed() > timeout)
-                .map(|(s, _)| s.clone())
-                .collect();
-            let mut changed = std::collections::BTreeSet::new();
-            for s in silent {
-                tracing::info!("agent source '{s}' went quiet; its agents are gone");
-                a.last_heard.remove(&s);
-                changed.extend(
-                    a.agents
-                        .drop_source(&a.net.crosswalks, &mut a.occupancy, &s),
-                );
-            }
-            changed
+            drop_silent(a, timeout)
                 .into_iter()
                 .map(|i| a.state(i, validity))
                 .collect::<Vec<_>>()

@@ -9,7 +9,7 @@ use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
 use trafficmesh_maps::MapArgs;
-use trafficmesh_model::wire::{Clock, LightOverride, LightState};
+use trafficmesh_model::wire::{Clock, LightOverride, LightState, TickReport};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
@@ -30,6 +30,10 @@ struct Args {
     /// after that the stepper counts the group red.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     validity: f64,
+    /// Advance on the stepper's lockstep questions instead of its clock
+    /// (answers on <cluster>/lockstep/step/lights; see the stepper's --lockstep).
+    #[arg(long)]
+    lockstep: bool,
 }
 
 struct Groups {
@@ -40,6 +44,21 @@ struct Groups {
 }
 
 impl Groups {
+    /// Runs the programs to `time`; returns the groups whose colour changed.
+    fn advance(&mut self, time: f64, validity: f64) -> Vec<LightState> {
+        self.time = time;
+        self.lights.update(time);
+        let mut changed = Vec::new();
+        for i in 0..self.published.len() {
+            let color = self.lights.state(i).color;
+            if self.published[i] != Some(color) {
+                self.published[i] = Some(color);
+                changed.push(self.state(i, validity));
+            }
+        }
+        changed
+    }
+
     fn state(&self, g: usize, validity: f64) -> LightState {
         let s = self.lights.state(g);
         LightState {
@@ -91,8 +110,15 @@ fn run(args: Args) -> Result<()> {
         );
         tokio::spawn(answer_states(bus.clone(), groups.clone(), validity));
         tokio::spawn(take_overrides(bus.clone(), groups.clone(), validity));
+        let advance = async {
+            if args.lockstep {
+                follow_lockstep(bus.clone(), groups.clone(), validity).await
+            } else {
+                follow_clock(bus.clone(), groups.clone(), validity).await
+            }
+        };
         tokio::select! {
-            r = follow_clock(bus.clone(), groups.clone(), validity) => r?,
+            r = advance => r?,
             _ = runtime::shutdown_signal() => {}
         }
         Ok(())
@@ -110,17 +136,7 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
     while let Some(c) = bus.next_latest::<Clock>(&clock).await {
         let (changed, beat) = {
             let mut g = groups.lock().expect("lights lock");
-            g.time = c.time;
-            g.lights.update(c.time);
-            let mut changed = Vec::new();
-            for i in 0..g.published.len() {
-                let color = g.lights.state(i).color;
-                if g.published[i] != Some(color) {
-                    g.published[i] = Some(color);
-                    changed.push(g.state(i, validity));
-                }
-            }
-            (changed, vouch.due(c.time))
+            (g.advance(c.time, validity), vouch.due(c.time))
         };
         for s in changed {
             bus.put(&keys.light_state(&s.group), &s).await?;
@@ -129,6 +145,32 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
             heartbeat.put(&b).await?;
         }
     }
+    Ok(())
+}
+
+/// In lockstep: each tick's changes go to the stepper with the answer, and
+/// on the state keys for everyone else.
+async fn follow_lockstep(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
+    let key = bus.keys().lockstep_member("lights");
+    bus.answer_ticks(&key, |tick| {
+        let changed = groups
+            .lock()
+            .expect("lights lock")
+            .advance(tick.time, validity);
+        let bus = bus.clone();
+        async move {
+            for s in &changed {
+                if let Err(e) = bus.put(&bus.keys().light_state(&s.group), s).await {
+                    tracing::warn!("cannot publish a light state: {e}");
+                }
+            }
+            TickReport::Lights {
+                changed,
+                valid_until: tick.time + validity,
+            }
+        }
+    })
+    .await?;
     Ok(())
 }
 

@@ -31,6 +31,30 @@ struct Args {
     /// Share of crossings made by cyclists, 0 to 1.
     #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
     cyclist_share: f64,
+    /// Step every tick on the crosswalks service's lockstep questions (answers
+    /// on <cluster>/lockstep/agents/pedestrians) instead of following the clock.
+    #[arg(long)]
+    lockstep: bool,
+}
+
+/// The walkers and cyclists as agent footprints at `time`.
+fn batch(people: &Pedestrians, time: f64) -> AgentBatch {
+    let agents = people
+        .agents()
+        .into_iter()
+        .map(|a| Agent {
+            id: a.id,
+            root: a.root,
+            kind: match a.kind {
+                trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
+                    "SimpleCyclistMovement".into()
+                }
+                _ => "NPCPedestrian".into(),
+            },
+            footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
+        })
+        .collect();
+    AgentBatch { time, agents }
 }
 
 fn main() -> ExitCode {
@@ -61,12 +85,34 @@ fn run(args: Args) -> Result<()> {
     runtime::tokio_runtime(1)?.block_on(async move {
         let bus = Bus::open_service(&args.bus, Role::Member, "pedestrians").await?;
         let keys = bus.keys().clone();
-        let clock = bus.subscribe(&keys.clock()).await?;
         let out = bus
             .publisher(keys.agents("pedestrians"), Lane::Reliable)
             .await?;
         let mut last: Option<f64> = None;
         let run = async {
+            if args.lockstep {
+                // Every tick, as a world that runs its own walkers steps them;
+                // the agents also go out ten times a simulated second for others.
+                let key = keys.lockstep_agents("pedestrians");
+                bus.answer_ticks(&key, |tick| {
+                    people.step(tick.time, tick.dt);
+                    let agents = batch(&people, tick.time);
+                    let due = last.is_none_or(|t| tick.time - t >= 0.1);
+                    if due {
+                        last = Some(tick.time);
+                    }
+                    let out = &out;
+                    async move {
+                        if due && let Err(e) = out.put(&agents).await {
+                            tracing::warn!("cannot publish the agents: {e}");
+                        }
+                        agents
+                    }
+                })
+                .await?;
+                return anyhow::Ok(());
+            }
+            let clock = bus.subscribe(&keys.clock()).await?;
             while let Some(c) = bus.next_latest::<Clock>(&clock).await {
                 let Some(prev) = last else {
                     last = Some(c.time);
@@ -78,26 +124,7 @@ fn run(args: Args) -> Result<()> {
                 }
                 people.step(c.time, c.time - prev);
                 last = Some(c.time);
-                let agents = people
-                    .agents()
-                    .into_iter()
-                    .map(|a| Agent {
-                        id: a.id,
-                        root: a.root,
-                        kind: match a.kind {
-                            trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
-                                "SimpleCyclistMovement".into()
-                            }
-                            _ => "NPCPedestrian".into(),
-                        },
-                        footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
-                    })
-                    .collect();
-                out.put(&AgentBatch {
-                    time: c.time,
-                    agents,
-                })
-                .await?;
+                out.put(&batch(&people, c.time)).await?;
             }
             anyhow::Ok(())
         };

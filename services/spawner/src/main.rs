@@ -51,6 +51,10 @@ struct Args {
     /// Where the branch-decision CSV is written on shutdown.
     #[arg(long, default_value = "traffic_branch_decisions.csv")]
     branch_csv: PathBuf,
+    /// Plan on the stepper's lockstep questions (answers on
+    /// <cluster>/lockstep/step/spawner) instead of its clock.
+    #[arg(long)]
+    lockstep: bool,
 }
 
 pub struct Spawner {
@@ -136,7 +140,11 @@ fn run(args: Args) -> Result<()> {
             }),
         );
         spawner.publish_config().await;
-        tokio::spawn(spawn_loop::run(spawner.clone()));
+        if args.lockstep {
+            tokio::spawn(spawn_loop::run_in_step(spawner.clone()));
+        } else {
+            tokio::spawn(spawn_loop::run(spawner.clone()));
+        }
         runtime::shutdown_signal().await;
         let csv = spawner.state().branch_csv();
         let rows = csv.lines().count().saturating_sub(1);

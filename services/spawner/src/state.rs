@@ -21,6 +21,8 @@ pub struct SpawnerState {
     pub spawn_distance_to_ego: f64,
     pub ego: Option<Ego>,
     pub time: f64,
+    /// The config changed since the lockstep answer last carried it.
+    config_unsent: bool,
     externals: BTreeMap<String, SharedExternal>,
     /// Simulator index -> external name, for the results.
     external_names: BTreeMap<usize, String>,
@@ -38,6 +40,7 @@ impl SpawnerState {
             spawn_distance_to_ego: trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego,
             ego: None,
             time: 0.0,
+            config_unsent: true,
             externals: BTreeMap::new(),
             external_names: BTreeMap::new(),
         }
@@ -50,7 +53,14 @@ impl SpawnerState {
             .map_err(|e| e.problems)?;
         self.manager.set_rates(&self.net, &config);
         self.config = config;
+        self.config_unsent = true;
         Ok(())
+    }
+
+    /// The config in force if it changed since the last call (for the
+    /// stepper, with the next lockstep answer).
+    pub fn take_config_change(&mut self) -> Option<TrafficSpawnConfig> {
+        std::mem::take(&mut self.config_unsent).then(|| self.config.clone())
     }
 
     /// This tick's spawn requests, as orders for the stepper.

@@ -7,9 +7,9 @@ use tokio::sync::oneshot;
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_model::wire::{
     CrosswalkOccupancy, EgoPose, Heartbeat, LightState, RemoveAnswer, RemoveTarget, RestartAnswer,
-    RestartRequest, SpawnAnswer, SpawnBatch, SpawnVerdict,
+    RestartRequest, SpawnAnswer, SpawnBatch, SpawnOrder, SpawnVerdict,
 };
-use trafficmesh_sim::world::SpawnRejection;
+use trafficmesh_sim::world::{QueuedSpawn, SpawnRejection};
 use trafficmesh_sim::{Ego, World};
 
 pub enum Command {
@@ -43,6 +43,19 @@ pub type InputSender = Sender<Input>;
 pub struct InputState {
     /// Simulation time until which the crosswalk states are vouched for.
     pub crosswalks_valid_until: f64,
+    /// Spawn batches whose orders wait in the world's queue for the next tick.
+    pending_spawns: Vec<PendingSpawn>,
+    /// Members whose states come with their lockstep answers: their ordinary
+    /// publications are ignored, which could arrive late and out of turn.
+    pub in_step: InStep,
+}
+
+/// Which of the stepper's sources keep in step (have answered a lockstep round).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct InStep {
+    pub lights: bool,
+    pub crosswalks: bool,
+    pub spawner: bool,
 }
 
 impl Default for InputState {
@@ -50,7 +63,63 @@ impl Default for InputState {
         // Nothing heard yet: fail-safe, every crosswalk counts as blocked.
         InputState {
             crosswalks_valid_until: f64::NEG_INFINITY,
+            pending_spawns: Vec::new(),
+            in_step: InStep::default(),
         }
+    }
+}
+
+/// A spawn batch in the world's queue: each order's verdict, `None` while it
+/// waits for the tick's spawn phase, and who gets the verdicts.
+#[derive(Debug)]
+struct PendingSpawn {
+    verdicts: Vec<Option<SpawnVerdict>>,
+    reply: SpawnReply,
+}
+
+#[derive(Debug)]
+enum SpawnReply {
+    Query(oneshot::Sender<Result<serde_json::Value, String>>),
+    /// The spawner's lockstep orders: the verdicts go with the next round.
+    Lockstep,
+}
+
+impl InputState {
+    /// After a tick: fills in the verdicts of the queued orders, answers the
+    /// spawn queries and returns the verdicts on the lockstep orders.
+    pub fn finish_spawns(&mut self, world: &mut World) -> Vec<SpawnVerdict> {
+        let mut results = world.take_spawn_results().into_iter();
+        let mut for_lockstep = Vec::new();
+        for pending in self.pending_spawns.drain(..) {
+            let verdicts: Vec<SpawnVerdict> = pending
+                .verdicts
+                .into_iter()
+                .map(|v| {
+                    v.unwrap_or_else(|| match results.next() {
+                        Some(result) => verdict(result),
+                        None => SpawnVerdict::Invalid {
+                            reason: "not admitted".into(),
+                        },
+                    })
+                })
+                .collect();
+            match pending.reply {
+                SpawnReply::Query(answer) => {
+                    let _ = answer.send(Ok(json(SpawnAnswer { verdicts })));
+                }
+                SpawnReply::Lockstep => for_lockstep.extend(verdicts),
+            }
+        }
+        for_lockstep
+    }
+
+    /// Queues the spawner's lockstep orders for this tick.
+    pub fn queue_lockstep_spawns(&mut self, world: &mut World, batch: SpawnBatch) {
+        let verdicts = queue_spawns(world, batch);
+        self.pending_spawns.push(PendingSpawn {
+            verdicts,
+            reply: SpawnReply::Lockstep,
+        });
     }
 }
 
@@ -62,7 +131,15 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
         Command::Stop => return Ok(false),
         Command::Query(request, answer) => {
             let result = match request {
-                Request::Spawn(batch) => Ok(json(spawn(world, batch))),
+                Request::Spawn(batch) => {
+                    // Answered after the tick that admits the orders.
+                    let verdicts = queue_spawns(world, batch);
+                    inputs.pending_spawns.push(PendingSpawn {
+                        verdicts,
+                        reply: SpawnReply::Query(answer),
+                    });
+                    return Ok(true);
+                }
                 Request::Remove(target) => remove(world, target).map(json),
                 Request::Restart(r) => {
                     let disposed = world.vehicles().len();
@@ -85,6 +162,10 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
             }
             world.set_ego(Some(Ego::from(&pose)));
         }
+        // A member in step sends its states with its lockstep answers.
+        Command::Light(_) | Command::LightsHeartbeat(_) if inputs.in_step.lights => {}
+        Command::Occupancy(_) | Command::CrosswalksHeartbeat(_) if inputs.in_step.crosswalks => {}
+        Command::SpawnConfig(_) if inputs.in_step.spawner => {}
         Command::Light(state) => {
             world
                 .set_remote_light(&state.group, state.color, state.valid_until)
@@ -112,59 +193,76 @@ fn json<T: serde::Serialize>(value: T) -> serde_json::Value {
     serde_json::to_value(value).expect("wire types serialise")
 }
 
-/// The final IsSpawnable and max-count check of each order, in order.
-fn spawn(world: &mut World, batch: SpawnBatch) -> SpawnAnswer {
-    let mut spawned_here = Vec::new();
-    let verdicts = batch
+/// Resolves each order's names and queues the valid ones for the next
+/// tick's spawn phase (the final IsSpawnable and max-count check, in order);
+/// an order that names an unknown lane or kind gets its verdict at once.
+fn queue_spawns(world: &mut World, batch: SpawnBatch) -> Vec<Option<SpawnVerdict>> {
+    batch
         .orders
         .into_iter()
-        .map(|order| {
-            let Some(lane) = world.network().lane_id(&order.lane) else {
-                return SpawnVerdict::Invalid {
-                    reason: format!("unknown lane '{}'", order.lane),
-                };
-            };
-            let known = match order.kind_def {
-                Some(def) if def.name == order.kind => Some(world.add_vehicle_kind(def)),
-                _ => world.kind_index(&order.kind),
-            };
-            let Some(kind) = known else {
-                return SpawnVerdict::Invalid {
-                    reason: format!("unknown vehicle kind '{}'", order.kind),
-                };
-            };
-            let route = match order.route {
-                None => None,
-                Some(names) => {
-                    let mut lanes = Vec::with_capacity(names.len());
-                    for n in &names {
-                        match world.network().lane_id(n) {
-                            Some(l) => lanes.push(l),
-                            None => {
-                                return SpawnVerdict::Invalid {
-                                    reason: format!("unknown route lane '{n}'"),
-                                };
-                            }
-                        }
-                    }
-                    Some(trafficmesh_sim::spawn::Route {
-                        lanes: lanes.into(),
-                        leave_at_end: order.leave_at_route_end,
-                        depart: order.depart,
-                    })
+        .map(
+            |order| match resolve_order(world, order, batch.max_vehicles) {
+                Ok(queued) => {
+                    world.queue_spawn(queued);
+                    None
                 }
-            };
-            match world.admit_spawn(kind, lane, route, batch.max_vehicles, &mut spawned_here) {
-                Ok(id) => SpawnVerdict::Spawned { id },
-                Err(SpawnRejection::MaxVehicles) => SpawnVerdict::MaxVehicles,
-                Err(SpawnRejection::NotSpawnable) => SpawnVerdict::NotSpawnable,
-                Err(e) => SpawnVerdict::Invalid {
-                    reason: e.to_string(),
-                },
-            }
-        })
-        .collect();
-    SpawnAnswer { verdicts }
+                Err(reason) => Some(SpawnVerdict::Invalid { reason }),
+            },
+        )
+        .collect()
+}
+
+fn resolve_order(
+    world: &mut World,
+    order: SpawnOrder,
+    max_vehicles: usize,
+) -> Result<QueuedSpawn, String> {
+    let lane = world
+        .network()
+        .lane_id(&order.lane)
+        .ok_or_else(|| format!("unknown lane '{}'", order.lane))?;
+    let known = match order.kind_def {
+        Some(def) if def.name == order.kind => Some(world.add_vehicle_kind(def)),
+        _ => world.kind_index(&order.kind),
+    };
+    let kind = known.ok_or_else(|| format!("unknown vehicle kind '{}'", order.kind))?;
+    let route = match order.route {
+        None => None,
+        Some(names) => {
+            let lanes = names
+                .iter()
+                .map(|n| {
+                    world
+                        .network()
+                        .lane_id(n)
+                        .ok_or_else(|| format!("unknown route lane '{n}'"))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            Some(trafficmesh_sim::spawn::Route {
+                lanes: lanes.into(),
+                leave_at_end: order.leave_at_route_end,
+                depart: order.depart,
+            })
+        }
+    };
+    Ok(QueuedSpawn {
+        kind,
+        lane,
+        route,
+        max_vehicles,
+    })
+}
+
+fn verdict(result: Result<u64, SpawnRejection>) -> SpawnVerdict {
+    match result {
+        Ok(id) => SpawnVerdict::Spawned { id },
+        Err(SpawnRejection::MaxVehicles) => SpawnVerdict::MaxVehicles,
+        // An order the restart voided: tried again as any other.
+        Err(SpawnRejection::NotSpawnable | SpawnRejection::Restarted) => SpawnVerdict::NotSpawnable,
+        Err(e) => SpawnVerdict::Invalid {
+            reason: e.to_string(),
+        },
+    }
 }
 
 fn remove(world: &mut World, target: RemoveTarget) -> Result<RemoveAnswer, String> {

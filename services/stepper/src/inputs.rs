@@ -38,6 +38,11 @@ pub struct StepperStatus {
     pub batches_dropped: u64,
     pub lights_stale: bool,
     pub crosswalks_stale: bool,
+    /// The run's trajectory hash so far (`sim` prints the same for the same run).
+    pub trajectory_hash: String,
+    /// Whether each tick waits for the lockstep members, and who answered last.
+    pub lockstep: bool,
+    pub lockstep_members: Vec<String>,
     /// The NPCVehicleConfig in force (accelerations, speed limit, driver model).
     pub vehicle_config: trafficmesh_model::NpcVehicleConfig,
 }

@@ -5,6 +5,7 @@
 
 mod commands;
 mod inputs;
+mod lockstep;
 mod telemetry;
 mod tick_loop;
 
@@ -57,6 +58,16 @@ pub struct Args {
     jam_timeout: f64,
     #[command(flatten)]
     vehicle: trafficmesh_maps::VehicleArgs,
+    /// Start each tick only when the lockstep members (every process answering
+    /// on <cluster>/lockstep/step/*) have answered for it: deterministic at any
+    /// speed, the same trajectories as `sim`. `trafficmesh up` turns it on with
+    /// `--speed 0`.
+    #[arg(long)]
+    lockstep: bool,
+    /// With --lockstep: members no tick starts without, comma-separated
+    /// (e.g. lights,crosswalks,spawner); others are waited for while they answer.
+    #[arg(long, value_delimiter = ',', requires = "lockstep")]
+    lockstep_members: Vec<String>,
 }
 
 fn main() -> ExitCode {
@@ -122,15 +133,35 @@ fn run(args: Args) -> Result<()> {
         let bus = Arc::new(bus);
         let (tx, rx) = std::sync::mpsc::channel();
         let shared = Arc::new(inputs::Shared::default());
-        shared.status.lock().expect("status lock").vehicle_config = world.config().vehicle;
+        {
+            let mut s = shared.status.lock().expect("status lock");
+            s.vehicle_config = world.config().vehicle;
+            s.lockstep = args.lockstep;
+        }
         inputs::start(bus.clone(), tx.clone()).await?;
         let outputs = telemetry::start(bus.clone()).await?;
         let status = shared.clone();
         trafficmesh_bus::serve_status(bus.clone(), Arc::new(move || status.status()));
         inputs::fetch_late_states(&bus, &tx).await;
+        let lockstep = args.lockstep.then(|| {
+            tracing::info!(
+                "lockstep: each tick waits for {}",
+                if args.lockstep_members.is_empty() {
+                    "whoever answers".to_string()
+                } else {
+                    args.lockstep_members.join(", ")
+                }
+            );
+            lockstep::Lockstep::new(
+                bus.clone(),
+                tokio::runtime::Handle::current(),
+                args.lockstep_members.clone(),
+            )
+        });
         let pacing = tick_loop::Pacing {
             speed: args.speed,
             duration: args.duration,
+            lockstep,
         };
         let tick_bus = bus.clone();
         let handle = std::thread::Builder::new()

@@ -13,12 +13,35 @@ use trafficmesh_bus::Bus;
 
 use crate::commands::{self, Input, InputState};
 use crate::inputs::Shared;
+use crate::lockstep::{self, Lockstep};
 use crate::telemetry::{Outputs, TickOutput, wire_events};
 
 pub struct Pacing {
     /// Simulation seconds per wall second; 0 = as fast as possible.
     pub speed: f64,
     pub duration: Option<f64>,
+    /// Each tick waits for the lockstep members' answers.
+    pub lockstep: Option<Lockstep>,
+}
+
+/// Applies what arrived since the last tick, in arrival order; false on Stop.
+fn drain(
+    world: &mut World,
+    inputs: &mut InputState,
+    inputs_rx: &Receiver<Input>,
+    bus: &Bus,
+) -> bool {
+    loop {
+        match inputs_rx.try_recv() {
+            Ok(input) => match commands::apply(world, inputs, input.command) {
+                Ok(true) => {}
+                Ok(false) => return false,
+                Err(reason) => bus.reject(&input.key, &reason),
+            },
+            Err(TryRecvError::Empty) => return true,
+            Err(TryRecvError::Disconnected) => return false,
+        }
+    }
 }
 
 pub fn run(
@@ -26,7 +49,7 @@ pub fn run(
     inputs_rx: Receiver<Input>,
     bus: Arc<Bus>,
     mut outputs: Outputs,
-    pacing: Pacing,
+    mut pacing: Pacing,
     shared: Arc<Shared>,
 ) {
     let dt = world.config().dt;
@@ -37,17 +60,16 @@ pub fn run(
     let (mut spawned, mut despawned, mut arrived) = (0u64, 0u64, 0u64);
     let mut stuck = 0;
     loop {
-        // Everything that arrived since the last tick, in arrival order.
-        loop {
-            match inputs_rx.try_recv() {
-                Ok(input) => match commands::apply(&mut world, &mut inputs, input.command) {
-                    Ok(true) => {}
-                    Ok(false) => return,
-                    Err(reason) => bus.reject(&input.key, &reason),
-                },
-                Err(TryRecvError::Empty) => break,
-                Err(TryRecvError::Disconnected) => return,
-            }
+        if !drain(&mut world, &mut inputs, &inputs_rx, &bus) {
+            return;
+        }
+        if let Some(lockstep) = &mut pacing.lockstep {
+            let question = lockstep.question(&world);
+            let answers = lockstep.round(&question, || {
+                drain(&mut world, &mut inputs, &inputs_rx, &bus)
+            });
+            let Some(answers) = answers else { return };
+            lockstep::apply(&bus, &mut world, &mut inputs, answers);
         }
         let stale = world.time() > inputs.crosswalks_valid_until;
         if stale != world.occupancy().is_stale() {
@@ -66,6 +88,10 @@ pub fn run(
         let t0 = Instant::now();
         world.step();
         let tick_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let verdicts = inputs.finish_spawns(&mut world);
+        if let Some(lockstep) = &mut pacing.lockstep {
+            lockstep.verdicts = verdicts;
+        }
 
         let raw: Vec<_> = world.drain_events().collect();
         let events: Vec<Event> = wire_events(&world, raw);
@@ -117,6 +143,10 @@ pub fn run(
             s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
             s.crosswalks_stale = world.occupancy().is_stale();
             s.lights_stale = world.lights_stale();
+            s.trajectory_hash = format!("{:016x}", world.trajectory_hash());
+            if let Some(lockstep) = &pacing.lockstep {
+                s.lockstep_members.clone_from(&lockstep.members);
+            }
         }
         let vehicles = outputs.vehicle_states(&world);
         outputs.offer(TickOutput {
@@ -125,6 +155,12 @@ pub fn run(
             events,
         });
         if pacing.duration.is_some_and(|d| world.time() >= d - 1e-9) {
+            tracing::info!(
+                "ran the duration: tick {}, t={:.2} s, {spawned} inserted, {arrived} arrived, trajectory hash {:016x}",
+                world.ticks(),
+                world.time(),
+                world.trajectory_hash()
+            );
             return;
         }
         if pacing.speed > 0.0 {

@@ -104,6 +104,20 @@ impl Keys {
     pub fn all_alive(&self) -> String {
         self.key("alive/*")
     }
+    /// Where a lockstep member answers the stepper's tick query.
+    pub fn lockstep_member(&self, member: &str) -> String {
+        self.key(&format!("lockstep/step/{member}"))
+    }
+    pub fn lockstep_members(&self) -> String {
+        self.key("lockstep/step/*")
+    }
+    /// Where an agent source in lockstep answers the crosswalks' tick query.
+    pub fn lockstep_agents(&self, source: &str) -> String {
+        self.key(&format!("lockstep/agents/{source}"))
+    }
+    pub fn lockstep_all_agents(&self) -> String {
+        self.key("lockstep/agents/*")
+    }
 
     /// The last chunk of a key (a light group, an area, a service).
     pub fn last_chunk(key: &str) -> &str {

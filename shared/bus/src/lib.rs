@@ -6,6 +6,7 @@
 mod bus;
 mod heartbeat;
 mod keys;
+mod lockstep;
 mod ports;
 pub mod runtime;
 mod session;
@@ -14,6 +15,7 @@ mod status;
 pub use bus::{Bus, Lane, Publisher};
 pub use heartbeat::Vouch;
 pub use keys::{Keys, is_plain_chunk};
+pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
 pub use status::{BadPayloads, serve_status};

@@ -89,6 +89,11 @@ pub struct StepperSection {
     /// `awsim` or `realistic`; None takes the map's default.
     pub driver_model: Option<String>,
     pub jam_timeout: f64,
+    /// Each tick waits for the lights, crosswalks and spawner; None: on
+    /// when `speed` is 0.
+    pub lockstep: Option<bool>,
+    /// Simulated seconds after which the run ends (the cluster stops); None: no end.
+    pub duration: Option<f64>,
 }
 impl Default for StepperSection {
     fn default() -> Self {
@@ -98,7 +103,17 @@ impl Default for StepperSection {
             populate: 0,
             driver_model: None,
             jam_timeout: trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT,
+            lockstep: None,
+            duration: None,
         }
+    }
+}
+
+impl StepperSection {
+    /// Lockstep unless told otherwise when running as fast as possible: the
+    /// other services could not keep up with a free-running stepper.
+    pub fn lockstep(&self) -> bool {
+        self.lockstep.unwrap_or(self.speed == 0.0)
     }
 }
 
@@ -287,6 +302,12 @@ impl ClusterConfig {
                 st.speed
             ),
         );
+        if let Some(d) = st.duration {
+            check(
+                positive(d),
+                &format!("stepper.duration must be a positive number of seconds, got {d}"),
+            );
+        }
         for (name, v) in [
             ("lights.validity", self.lights.validity),
             ("crosswalks.validity", self.crosswalks.validity),
@@ -387,6 +408,24 @@ impl ClusterConfig {
         if let Some(model) = &self.stepper.driver_model {
             stepper.extend(["--driver-model".into(), model.clone()]);
         }
+        if let Some(d) = self.stepper.duration {
+            stepper.extend(["--duration".into(), d.to_string()]);
+        }
+        let lockstep = self.stepper.lockstep();
+        // Each member's flag to keep in step, when the run is in lockstep.
+        let in_step = |mut flags: Vec<String>| {
+            if lockstep {
+                flags.push("--lockstep".into());
+            }
+            flags
+        };
+        if lockstep {
+            stepper.extend([
+                "--lockstep".into(),
+                "--lockstep-members".into(),
+                "lights,crosswalks,spawner".into(),
+            ]);
+        }
         for (_, flag, v) in self.vehicle.set() {
             stepper.extend([flag.into(), v.to_string()]);
         }
@@ -415,32 +454,41 @@ impl ClusterConfig {
                         "--branch-csv".into(),
                         self.spawner.branch_csv.display().to_string(),
                     ]);
-                    flags
+                    in_step(flags)
                 }),
             ),
             (
                 "lights",
-                member(vec!["--validity".into(), self.lights.validity.to_string()]),
+                member(in_step(vec![
+                    "--validity".into(),
+                    self.lights.validity.to_string(),
+                ])),
             ),
             (
                 "crosswalks",
-                member(vec![
-                    "--validity".into(),
-                    self.crosswalks.validity.to_string(),
-                ]),
+                member({
+                    let mut flags = in_step(vec![
+                        "--validity".into(),
+                        self.crosswalks.validity.to_string(),
+                    ]);
+                    if lockstep && self.pedestrians.enabled {
+                        flags.extend(["--lockstep-sources".into(), "pedestrians".into()]);
+                    }
+                    flags
+                }),
             ),
         ];
         if self.pedestrians.enabled {
             list.push((
                 "pedestrians",
-                member(vec![
+                member(in_step(vec![
                     "--seed".into(),
                     self.seed.to_string(),
                     "--per-minute".into(),
                     self.pedestrians.per_minute.to_string(),
                     "--cyclist-share".into(),
                     self.pedestrians.cyclist_share.to_string(),
-                ]),
+                ])),
             ));
         }
         let mut launches: Vec<Launch> = list

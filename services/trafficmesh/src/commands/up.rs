@@ -54,6 +54,10 @@ struct Running {
     restart_at: Option<Instant>,
     /// Exited with the configuration-error code: never restarted.
     failed: bool,
+    /// Its clean exit ends the run (the stepper with a `duration`).
+    ends_run: bool,
+    /// It exited cleanly and `ends_run`: the run is over.
+    finished: bool,
 }
 
 /// The exit code of a service that cannot run with its configuration (bad
@@ -163,10 +167,12 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
     let initial = Duration::from_millis(config.restart.initial_backoff_ms);
     let max = Duration::from_millis(config.restart.max_backoff_ms);
     let (lines, mut line_rx) = mpsc::unbounded_channel::<String>();
+    let timed = config.stepper.duration.is_some();
     let mut services: Vec<Running> = config
         .services()
         .into_iter()
         .map(|l| Running {
+            ends_run: timed && l.name == "stepper",
             name: l.name,
             flags: l.flags,
             env: l.env,
@@ -175,6 +181,7 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
             backoff: initial,
             restart_at: Some(Instant::now()),
             failed: false,
+            finished: false,
         })
         .collect();
     tracing::info!(
@@ -201,6 +208,10 @@ async fn supervise(config: ClusterConfig) -> Result<()> {
                 // A part that cannot run stops the whole: a cluster without
                 // it would run on, silently incomplete.
                 if services.iter().any(|s| s.failed) {
+                    break;
+                }
+                if services.iter().any(|s| s.finished) {
+                    tracing::info!("the stepper ran its duration; the run is over");
                     break;
                 }
             }
@@ -252,6 +263,10 @@ fn check(s: &mut Running, lines: &mpsc::UnboundedSender<String>, initial: Durati
         && let Ok(Some(status)) = child.try_wait()
     {
         s.child = None;
+        if s.ends_run && status.success() {
+            s.finished = true;
+            return;
+        }
         if status.code() == Some(CONFIG_ERROR) {
             tracing::error!(
                 "{} exited with the configuration-error code {CONFIG_ERROR} (its log above names the problem); not restarted: fix its configuration and run `trafficmesh up` again",

@@ -7,6 +7,7 @@
 
 mod agents;
 mod commands;
+mod lockstep;
 mod states;
 mod telemetry;
 pub mod vehicle_codec;
@@ -16,6 +17,7 @@ pub use commands::{
     ExternalProposal, ProposalBatch, ProposalResult, RemoveAnswer, RemoveTarget, RestartAnswer,
     RestartRequest, SpawnAnswer, SpawnBatch, SpawnOrder, SpawnVerdict,
 };
+pub use lockstep::{LockstepTick, TickReport};
 pub use states::{
     CrosswalkOccupancy, EgoPose, Heartbeat, LightOverride, LightState, ServiceStatus,
 };

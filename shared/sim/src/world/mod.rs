@@ -33,7 +33,7 @@ use crate::vehicle::{Vehicle, VehicleId};
 pub(crate) use awake::join_if;
 pub use jams::{STUCK_AFTER, WaitStats};
 pub use phases::{Phase, PhaseTimes};
-pub use spawning::SpawnRejection;
+pub use spawning::{QueuedSpawn, SpawnRejection};
 pub use step::MIN_VEHICLES_PER_TASK;
 
 /// SUMO's default `time-to-teleport`, seconds.
@@ -124,6 +124,10 @@ pub struct World {
     zebra_blocked_last_tick: bool,
     ego: Option<Ego>,
     spawner: SpawnManager,
+    /// Spawn orders from outside (the spawner service), for the next spawn phase.
+    queued_spawns: Vec<spawning::QueuedSpawn>,
+    /// What became of them, in order, until taken.
+    spawn_results: Vec<Result<VehicleId, SpawnRejection>>,
     spawn_config: Option<TrafficSpawnConfig>,
     branch_policy: BranchPolicy,
     branch_stats: BranchStats,
@@ -161,6 +165,8 @@ impl World {
             zebra_blocked_last_tick: false,
             ego: None,
             spawner,
+            queued_spawns: Vec::new(),
+            spawn_results: Vec::new(),
             spawn_config: None,
             branch_policy: BranchPolicy::none(),
             branch_stats: BranchStats::default(),
@@ -439,6 +445,12 @@ impl World {
             .map(|v| step::trip_record(&self.net, &v, time, DespawnReason::Restart))
             .collect();
         step::push_despawns(&mut self.events, trips);
+        // Orders queued before the restart belong to the old run.
+        let void = self
+            .queued_spawns
+            .drain(..)
+            .map(|_| Err(SpawnRejection::Restarted));
+        self.spawn_results.extend(void);
         self.spawner.restart(&self.net, seed);
         if let Some(seed) = seed {
             self.config.seed = seed;

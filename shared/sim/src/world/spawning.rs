@@ -24,9 +24,23 @@ pub enum SpawnRejection {
     UnknownLane(LaneId),
     #[error("unknown vehicle kind {0}")]
     UnknownKind(usize),
+    #[error("the world restarted before the order's tick")]
+    Restarted,
 }
 
 const CLEARANCE: f64 = 1.0;
+
+/// A spawn order from outside the world (the spawner service's), admitted in
+/// the next tick's spawn phase, after the world's own requests: the point of
+/// the tick where a world that runs its own simulators spawns, so that the
+/// cluster and `sim` spawn alike.
+#[derive(Clone, Debug)]
+pub struct QueuedSpawn {
+    pub kind: usize,
+    pub lane: LaneId,
+    pub route: Option<crate::spawn::Route>,
+    pub max_vehicles: usize,
+}
 
 impl World {
     /// `placed`: bodies put at lane starts earlier this tick (jammed vehicles
@@ -53,6 +67,26 @@ impl World {
             };
             self.spawner.resolve(request, outcome, self.time);
         }
+        for order in std::mem::take(&mut self.queued_spawns) {
+            let result = self.admit_spawn(
+                order.kind,
+                order.lane,
+                order.route,
+                order.max_vehicles,
+                &mut spawned_here,
+            );
+            self.spawn_results.push(result);
+        }
+    }
+
+    /// Queues a spawn order for the next tick's spawn phase.
+    pub fn queue_spawn(&mut self, order: QueuedSpawn) {
+        self.queued_spawns.push(order);
+    }
+
+    /// What became of the queued orders admitted so far, in queue order.
+    pub fn take_spawn_results(&mut self) -> Vec<Result<VehicleId, SpawnRejection>> {
+        std::mem::take(&mut self.spawn_results)
     }
 
     /// The final check of a spawn request against the vehicles (max count, then

@@ -1,0 +1,151 @@
+//! Lockstep: before each tick the stepper asks every member (lights,
+//! crosswalks, spawner, and any process that declared itself one) for its
+//! inputs to that tick, and starts the tick only when the required members
+//! have answered. With every input tied to a tick, the cluster runs the same
+//! trajectories as `sim` on the same map, config and seed, at any speed.
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+use std::time::Duration;
+
+use trafficmesh_bus::Bus;
+use trafficmesh_model::wire::{LockstepTick, SpawnVerdict, TickReport};
+use trafficmesh_sim::World;
+
+use crate::commands::InputState;
+
+pub struct Lockstep {
+    bus: Arc<Bus>,
+    runtime: tokio::runtime::Handle,
+    /// Members without whose answer no tick starts.
+    required: Vec<String>,
+    /// The verdicts on the spawner's last orders, sent with the next round.
+    pub verdicts: Vec<SpawnVerdict>,
+    /// Who answered the last round.
+    pub members: Vec<String>,
+}
+
+/// Asked again after this long while a required member has not answered.
+const RETRY: Duration = Duration::from_millis(100);
+
+impl Lockstep {
+    pub fn new(bus: Arc<Bus>, runtime: tokio::runtime::Handle, required: Vec<String>) -> Self {
+        Lockstep {
+            bus,
+            runtime,
+            required,
+            verdicts: Vec::new(),
+            members: Vec::new(),
+        }
+    }
+
+    /// The question for the tick `world` is about to run.
+    pub fn question(&mut self, world: &World) -> LockstepTick {
+        LockstepTick {
+            tick: world.ticks(),
+            time: world.time(),
+            dt: world.config().dt,
+            spawn_verdicts: std::mem::take(&mut self.verdicts),
+        }
+    }
+
+    /// Every member's answer to `tick`, by member name; asks again until
+    /// each required member has answered. `keep_going` runs between attempts
+    /// (the tick thread's other inputs) and ends the wait with `None` when it
+    /// returns false.
+    pub fn round(
+        &mut self,
+        tick: &LockstepTick,
+        mut keep_going: impl FnMut() -> bool,
+    ) -> Option<BTreeMap<String, TickReport>> {
+        let key = self.bus.keys().lockstep_members();
+        let mut waited = false;
+        loop {
+            let missing = match self
+                .runtime
+                .block_on(self.bus.lockstep_round::<TickReport>(&key, tick))
+            {
+                Ok(answers) => {
+                    let missing: Vec<&str> = self
+                        .required
+                        .iter()
+                        .filter(|m| !answers.contains_key(*m))
+                        .map(String::as_str)
+                        .collect();
+                    if missing.is_empty() {
+                        if waited {
+                            tracing::info!("lockstep: every member answered tick {}", tick.tick);
+                        }
+                        self.members = answers.keys().cloned().collect();
+                        return Some(answers);
+                    }
+                    missing.join(", ")
+                }
+                Err(e) => e.to_string(),
+            };
+            if !waited {
+                tracing::warn!(
+                    "lockstep: tick {} waits for {missing} (t={:.2})",
+                    tick.tick,
+                    tick.time
+                );
+                waited = true;
+            }
+            if !keep_going() {
+                return None;
+            }
+            std::thread::sleep(RETRY);
+        }
+    }
+}
+
+/// Applies the members' answers in name order; a state the world refuses
+/// (unknown group or area) is counted as a bad payload of that member's key.
+pub fn apply(
+    bus: &Bus,
+    world: &mut World,
+    inputs: &mut InputState,
+    answers: BTreeMap<String, TickReport>,
+) {
+    for (member, report) in answers {
+        let key = bus.keys().lockstep_member(&member);
+        match report {
+            TickReport::Lights {
+                changed,
+                valid_until,
+            } => {
+                inputs.in_step.lights = true;
+                for s in changed {
+                    if let Err(e) = world.set_remote_light(&s.group, s.color, s.valid_until) {
+                        bus.reject(&key, &e.to_string());
+                    }
+                }
+                world.extend_remote_lights(valid_until);
+            }
+            TickReport::Crosswalks {
+                changed,
+                valid_until,
+            } => {
+                inputs.in_step.crosswalks = true;
+                for o in changed {
+                    if let Err(e) =
+                        world.set_crosswalk_occupants(&o.area, o.occupants.into_iter().collect())
+                    {
+                        bus.reject(&key, &e.to_string());
+                    }
+                }
+                inputs.crosswalks_valid_until = valid_until;
+            }
+            TickReport::Spawner { orders, config } => {
+                inputs.in_step.spawner = true;
+                if let Some(config) = config
+                    && let Err(e) = world.set_spawn_config(config)
+                {
+                    bus.reject(&key, &e.to_string());
+                }
+                inputs.queue_lockstep_spawns(world, orders);
+            }
+            TickReport::Ready => {}
+        }
+    }
+}
