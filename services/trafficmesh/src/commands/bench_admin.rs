@@ -75,7 +75,7 @@ pub fn run(a: AdminArgs) -> Result<()> {
     {
         bail!("--size, --vehicles, --connections, --rate and --duration must be positive");
     }
-    let cluster = BenchCluster::start(a.size, a.vehicles, true)?;
+    let cluster = BenchCluster::start(a.size, a.vehicles, "", true)?;
     let base = cluster.admin.clone().expect("started with the admin");
     warm_up(&base, a.vehicles)
         .with_context(|| format!("cluster log: {}", cluster.log.display()))?;

@@ -1,5 +1,6 @@
 //! `trafficmesh bench cluster`: the whole cluster on this machine (via `up`)
-//! with N vehicles on a generated grid, measured from another process over
+//! with N vehicles on a generated grid (real time, or as fast as possible in
+//! lockstep), measured from another process over
 //! Zenoh: tick rate, tick duration, and latency from the stepper's
 //! publication of a batch to its arrival here; plus what encoding a batch costs.
 
@@ -24,6 +25,13 @@ pub struct ClusterArgs {
     /// Grid size (junctions per side).
     #[arg(long, default_value_t = 40)]
     size: usize,
+    /// The stepper's speed: simulation seconds per wall second, 0 = as fast
+    /// as possible (in lockstep with the other services, as `up` runs it).
+    #[arg(long, default_value_t = 1.0)]
+    speed: f64,
+    /// Lockstep at any speed (each tick waits for lights, crosswalks, spawner).
+    #[arg(long)]
+    lockstep: bool,
     /// Print one JSON object.
     #[arg(long)]
     json: bool,
@@ -32,8 +40,11 @@ pub struct ClusterArgs {
 #[derive(Serialize)]
 struct Report {
     vehicles: usize,
+    speed: f64,
+    lockstep: bool,
     seconds: f64,
     ticks_per_sec: f64,
+    /// At least 50 ticks a wall second (dt 0.02 s).
     real_time: bool,
     tick_p50_ms: f64,
     tick_p99_ms: f64,
@@ -63,7 +74,12 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     if a.size == 0 || a.vehicles == 0 || !(a.duration.is_finite() && a.duration > 0.0) {
         bail!("--size, --vehicles and --duration must be positive");
     }
-    let cluster = BenchCluster::start(a.size, a.vehicles, false)?;
+    if !(a.speed.is_finite() && a.speed >= 0.0) {
+        bail!("--speed must be 0 (as fast as possible) or a positive factor");
+    }
+    let lockstep = a.lockstep || a.speed == 0.0;
+    let stepper = format!("speed = {}\nlockstep = {lockstep}", a.speed);
+    let cluster = BenchCluster::start(a.size, a.vehicles, &stepper, false)?;
     let report = measure(&a, &cluster.bus_args())
         .with_context(|| format!("cluster log: {}", cluster.log.display()))?;
     drop(cluster);
@@ -71,8 +87,10 @@ pub fn run(a: ClusterArgs) -> Result<()> {
         println!("{}", serde_json::to_string(&report)?);
     } else {
         println!(
-            "{} vehicles, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes binary (encode {:.2} ms, decode {:.2} ms), {} bytes as JSON (encode {:.2} ms, decode {:.2} ms)",
+            "{} vehicles, speed {}{}, {:.1} s: {:.1} ticks/s ({}), tick p50 {:.2} ms p99 {:.2} ms; {} batches ({:.1}/s), latency p50 {:.2} ms p99 {:.2} ms; batch {} bytes binary (encode {:.2} ms, decode {:.2} ms), {} bytes as JSON (encode {:.2} ms, decode {:.2} ms)",
             report.vehicles,
+            report.speed,
+            if report.lockstep { " in lockstep" } else { "" },
             report.seconds,
             report.ticks_per_sec,
             if report.real_time {
@@ -150,6 +168,8 @@ fn measure(a: &ClusterArgs, args: &BusArgs) -> Result<Report> {
         let ticks_per_sec = ticks / seconds;
         Ok(Report {
             vehicles: a.vehicles,
+            speed: a.speed,
+            lockstep: a.lockstep || a.speed == 0.0,
             seconds,
             ticks_per_sec,
             real_time: ticks_per_sec >= 49.0,

@@ -19,8 +19,14 @@ pub struct BenchCluster {
 }
 
 impl BenchCluster {
-    /// `size` x `size` grid with `vehicles` placed and kept up by the spawner.
-    pub fn start(size: usize, vehicles: usize, with_admin: bool) -> Result<BenchCluster> {
+    /// `size` x `size` grid with `vehicles` placed and kept up by the spawner;
+    /// `stepper`: more of cluster.toml's `[stepper]` (e.g. `speed = 0`).
+    pub fn start(
+        size: usize,
+        vehicles: usize,
+        stepper: &str,
+        with_admin: bool,
+    ) -> Result<BenchCluster> {
         let dir = std::env::temp_dir().join(format!("trafficmesh-bench-{}", std::process::id()));
         std::fs::create_dir_all(&dir)
             .with_context(|| format!("cannot create {}", dir.display()))?;
@@ -39,7 +45,7 @@ impl BenchCluster {
             &config,
             format!(
                 "cluster = \"{cluster}\"\nmap = \"{map}\"\nendpoint = \"{endpoint}\"\n\
-                 [stepper]\npopulate = {vehicles}\n\
+                 [stepper]\npopulate = {vehicles}\n{stepper}\n\
                  [spawner]\nmax_vehicles = {vehicles}\nspawn_config = \"{spawn}\"\nbranch_csv = \"{csv}\"\n\
                  [pedestrians]\nenabled = false\n\
                  [admin]\nenabled = {with_admin}\nlisten = \"127.0.0.1:{admin_port}\"\ntoken = \"{token}\"\n",
