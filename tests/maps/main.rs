@@ -892,6 +892,16 @@ fn every_movement_of_the_cross(per_hour: u32) -> Vec<(String, String, u32)> {
 /// the realistic model until every vehicle has left, checking for overlaps
 /// on the way: (inserted, arrived, the world at the end).
 fn run_flows(net: &Path, flows: &[(String, String, u32)], what: &str) -> (u32, u32, World) {
+    let run = run_flows_by_lane(net, flows, what);
+    (run.0, run.1, run.2)
+}
+
+/// As `run_flows`, with the number of vehicles inserted on each lane.
+fn run_flows_by_lane(
+    net: &Path,
+    flows: &[(String, String, u32)],
+    what: &str,
+) -> (u32, u32, World, std::collections::BTreeMap<String, u32>) {
     let mut routes = String::from("<routes>\n  <vType id=\"car\" length=\"4.5\"/>\n");
     for (id, edges, per_hour) in flows {
         routes += &format!(
@@ -914,11 +924,18 @@ fn run_flows(net: &Path, flows: &[(String, String, u32)], what: &str) -> (u32, u
         },
     );
     let (mut inserted, mut arrived) = (0, 0);
+    let mut by_lane = std::collections::BTreeMap::new();
     while w.time() < 3600.0 && !(w.time() > 1.0 && w.demand_done()) {
         w.step();
-        for e in w.drain_events() {
+        let events: Vec<SimEvent> = w.drain_events().collect();
+        for e in events {
             match e {
-                SimEvent::Spawned { .. } => inserted += 1,
+                SimEvent::Spawned { lane, .. } => {
+                    inserted += 1;
+                    *by_lane
+                        .entry(w.network().lane(lane).name.clone())
+                        .or_insert(0) += 1;
+                }
                 SimEvent::Despawned(t) => {
                     assert_eq!(t.reason, trafficmesh_sim::DespawnReason::RouteEnd, "{t:?}");
                     arrived += 1;
@@ -930,7 +947,7 @@ fn run_flows(net: &Path, flows: &[(String, String, u32)], what: &str) -> (u32, u
             assert_no_overlaps(&w, what);
         }
     }
-    (inserted, arrived, w)
+    (inserted, arrived, w, by_lane)
 }
 
 /// A right-before-left junction with all four arms queued: 300 vehicles an
@@ -1115,6 +1132,32 @@ fn a_priority_junction_with_every_approach_queued_lets_everybody_through() {
     assert_eq!(inserted, 204, "the demand");
     assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
     assert_eq!(w.wait_stats().jam_resolutions, 0);
+}
+
+/// A flow on a three-lane road departs on every lane, as SUMO's
+/// `departLane="best"` spreads it, not all in one queue: 3,000 vehicles an
+/// hour, more than one lane takes. Every vehicle gets through, none overlaps
+/// another and none needs the jam timeout.
+#[test]
+fn a_flow_on_a_three_lane_road_departs_on_every_lane() {
+    let dir = tempfile::tempdir().unwrap();
+    let nodes = "  <node id=\"A\" x=\"0\" y=\"0\"/>\n  <node id=\"B\" x=\"300\" y=\"0\"/>\n  <node id=\"C\" x=\"600\" y=\"10\"/>\n";
+    let edges = "  <edge id=\"AB\" from=\"A\" to=\"B\" numLanes=\"3\" speed=\"13.89\"/>\n  <edge id=\"BC\" from=\"B\" to=\"C\" numLanes=\"3\" speed=\"13.89\"/>\n";
+    let Some(net) = netconvert(dir.path(), "three_lanes", nodes, edges, &[]) else {
+        return;
+    };
+    let flows = vec![("f".to_string(), "AB BC".to_string(), 3000)];
+    let (inserted, arrived, w, by_lane) = run_flows_by_lane(&net, &flows, "three lanes");
+    assert_eq!(inserted, 500, "the demand");
+    assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+    for lane in ["AB_0", "AB_1", "AB_2"] {
+        let n = by_lane.get(lane).copied().unwrap_or(0);
+        assert!(
+            n >= 100,
+            "{n} of {inserted} departed on {lane}: {by_lane:?}"
+        );
+    }
 }
 
 /// A lane drop: two lanes narrow to one (a zipper merge), 1,200 vehicles an

@@ -133,7 +133,10 @@ fn geometry(net: &LaneNetwork) -> MapGeometry {
         .flat_map(|s| match s {
             SimulatorSpec::Random { lanes, .. } => lanes.clone(),
             SimulatorSpec::Route { route, .. } => route.first().copied().into_iter().collect(),
-            SimulatorSpec::Demand { departures } => departures.iter().map(|d| d.1[0]).collect(),
+            SimulatorSpec::Demand { departures } => departures
+                .iter()
+                .flat_map(|d| d.routes.iter().map(|r| r[0]))
+                .collect(),
         })
         .collect();
     spawn_lanes.sort_unstable();

@@ -37,8 +37,6 @@ struct Network<'m> {
     length: HashMap<&'m str, f64>,
     /// The classes each lane allows; empty: all.
     classes: HashMap<&'m str, &'m [String]>,
-    /// Lane changes the chosen lane routes need on the way.
-    shifts: std::cell::Cell<usize>,
 }
 
 /// The cheapest way on from a lane: its cost and its lanes (that lane first).
@@ -76,7 +74,6 @@ impl<'m> Network<'m> {
                 .iter()
                 .map(|l| (l.name.as_str(), l.vehicle_classes.as_slice()))
                 .collect(),
-            shifts: std::cell::Cell::new(0),
         }
     }
 
@@ -96,22 +93,36 @@ impl<'m> Network<'m> {
 
     /// Lanes from a lane of `edges[0]` through every edge in turn (internal
     /// lanes between them included), or None when the edges are not connected.
-    /// Of all lane routes it takes one with the fewest lane changes, placed
+    /// Of all lane routes it takes those with the fewest lane changes, placed
     /// where there is room for them (SUMO's `departLane="best"` and its
-    /// strategic lane choice), the rightmost among equals, on lanes that
-    /// allow `class`.
-    fn lane_route(&self, edges: &[&str], class: &str) -> Option<Vec<String>> {
+    /// strategic lane choice), on lanes that allow `class`: one per start
+    /// lane, the preferred first. Among equals `spread` picks: vehicles given
+    /// different values spread over the lanes that serve their way equally
+    /// well, as drivers do, instead of all queueing in one of them. Also
+    /// returns how many lane changes the preferred route needs.
+    fn lane_routes(
+        &self,
+        edges: &[&str],
+        class: &str,
+        spread: u64,
+    ) -> Option<(Vec<Vec<String>>, usize)> {
         let mut memo: HashMap<(&str, usize), Continuation> = HashMap::new();
-        let best = self
+        let mut starts: Vec<(f64, TieKey, Vec<String>)> = self
             .edge_lanes
             .get(edges.first()?)?
             .iter()
             .filter(|start| self.allows(start, class))
-            .filter_map(|start| self.extend(start, edges, 1, class, &mut memo))
-            .min_by(|a, b| a.0.total_cmp(&b.0))?;
+            .filter_map(|start| {
+                let (cost, lanes) = self.extend(start, edges, 1, class, spread, &mut memo)?;
+                Some((cost, draw(spread, start), lanes))
+            })
+            .collect();
+        starts.sort_by(|a, b| cheaper(a.0, a.1, b.0, b.1));
+        let best_cost = starts.first()?.0;
+        starts.retain(|s| (s.0 - best_cost).abs() < SAME_COST);
         // Where two listed lanes are not linked, the vehicle changes lanes.
-        let changes = best
-            .1
+        let changes = starts[0]
+            .2
             .windows(2)
             .filter(|w| {
                 !self
@@ -120,8 +131,7 @@ impl<'m> Network<'m> {
                     .is_some_and(|n| n.contains(&w[1]))
             })
             .count();
-        self.shifts.set(self.shifts.get() + changes);
-        Some(best.1)
+        Some((starts.into_iter().map(|s| s.2).collect(), changes))
     }
 
     /// The cheapest continuation from `lane` (a lane of `edges[k - 1]`).
@@ -131,6 +141,7 @@ impl<'m> Network<'m> {
         edges: &[&str],
         k: usize,
         class: &str,
+        spread: u64,
         memo: &mut HashMap<(&'a str, usize), Continuation>,
     ) -> Continuation {
         if k == edges.len() {
@@ -139,7 +150,7 @@ impl<'m> Network<'m> {
         if let Some(known) = memo.get(&(lane, k)) {
             return known.clone();
         }
-        let mut best: Continuation = None;
+        let mut best: Option<(f64, TieKey, Vec<String>)> = None;
         // Through up to three internal lanes to a lane of the next edge.
         let mut frontier: Vec<Vec<&str>> = vec![vec![lane]];
         for _ in 0..4 {
@@ -173,24 +184,52 @@ impl<'m> Network<'m> {
                             .filter(|s| *s != n.as_str() && self.allows(s, class)),
                     );
                     for (i, entry) in candidates.enumerate() {
-                        let Some((cost, rest)) = self.extend(entry, edges, k + 1, class, memo)
+                        let Some((cost, rest)) =
+                            self.extend(entry, edges, k + 1, class, spread, memo)
                         else {
                             continue;
                         };
                         let cost = cost + if i > 0 { self.shift_cost(n) } else { 0.0 };
-                        if best.as_ref().is_none_or(|b| cost < b.0) {
+                        let key = draw(spread, entry);
+                        if best.as_ref().is_none_or(|b| {
+                            cheaper(cost, key, b.0, b.1) == std::cmp::Ordering::Less
+                        }) {
                             let mut out: Vec<String> = p.iter().map(|s| s.to_string()).collect();
                             out.extend(rest.into_iter().skip(1));
-                            best = Some((cost, out));
+                            best = Some((cost, key, out));
                         }
                     }
                 }
             }
             frontier = further;
         }
+        let best = best.map(|(cost, _, lanes)| (cost, lanes));
         memo.insert((lane, k), best.clone());
         best
     }
+}
+
+/// Lane routes whose costs differ by less than this are equally good.
+const SAME_COST: f64 = 1e-6;
+
+/// Orders two lane routes by cost, equal costs by their tie keys.
+fn cheaper(cost_a: f64, key_a: TieKey, cost_b: f64, key_b: TieKey) -> std::cmp::Ordering {
+    if (cost_a - cost_b).abs() < SAME_COST {
+        key_a.cmp(&key_b)
+    } else {
+        cost_a.total_cmp(&cost_b)
+    }
+}
+
+/// Among equally good lanes the one with the smallest draw wins.
+type TieKey = u64;
+
+/// A draw of `lane`'s place among equally good lanes for one `spread` value.
+fn draw(spread: u64, lane: &str) -> u64 {
+    let mut z = mix(spread, lane, 0).wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
 }
 
 /// A small deterministic generator for `probability` flows (seeded by the flow id).
@@ -235,6 +274,8 @@ pub struct DemandBuilder<'m> {
     not_simulated: std::collections::BTreeMap<String, usize>,
     unrouted: usize,
     unconnected: Vec<String>,
+    /// Edge routes (per class) that need a lane change on the way.
+    shifted_routes: usize,
     /// Vehicles whose vType no file read defines, by type.
     undefined_types: std::collections::BTreeMap<String, usize>,
 }
@@ -255,6 +296,7 @@ impl<'m> DemandBuilder<'m> {
             not_simulated: Default::default(),
             unrouted: 0,
             unconnected: Vec::new(),
+            shifted_routes: 0,
             undefined_types: Default::default(),
         }
     }
@@ -319,10 +361,7 @@ impl<'m> DemandBuilder<'m> {
         self.add_types(doc)?;
         let root = doc.root_element();
         let mut routes: HashMap<&str, Vec<&str>> = HashMap::new();
-        // Lane routes by vehicle class, then by edge route: a flow's
-        // departures share one.
-        let mut lane_routes: HashMap<String, HashMap<Vec<&str>, Option<Vec<String>>>> =
-            HashMap::new();
+        let mut routed: std::collections::HashSet<(String, Vec<&str>)> = Default::default();
         for n in root.children().filter(|n| n.is_element()) {
             let tag = n.tag_name().name();
             match tag {
@@ -378,18 +417,23 @@ impl<'m> DemandBuilder<'m> {
                 }
                 let prefab = self.kind_for(vehicle_type.as_deref(), id, k);
                 let class = self.class_of(&prefab);
-                let by_edges = lane_routes.entry(class.clone()).or_default();
-                if !by_edges.contains_key(&edges) {
-                    by_edges.insert(edges.clone(), self.net.lane_route(&edges, &class));
-                }
-                let Some(route) = &by_edges[&edges] else {
+                // Each departure's own lane routes: its id draws between
+                // equally good lanes.
+                let first = routed.insert((class.clone(), edges.clone()));
+                let Some((routes, changes)) =
+                    self.net.lane_routes(&edges, &class, mix(self.seed, id, k))
+                else {
                     connected = false;
                     continue;
                 };
+                if first && changes > 0 {
+                    self.shifted_routes += 1;
+                }
                 self.departures.push(DepartureDef {
                     time: time - self.begin,
-                    route: route.clone(),
+                    route: routes[0].clone(),
                     prefab,
+                    other_routes: routes[1..].to_vec(),
                 });
             }
             if !connected {
@@ -433,10 +477,10 @@ impl<'m> DemandBuilder<'m> {
     }
 
     pub fn finish(mut self) -> Result<Demand, ImportError> {
-        if self.net.shifts.get() > 0 {
+        if self.shifted_routes > 0 {
             self.warnings.push(format!(
                 "{} route(s) need a lane change on the way: those vehicles move across at the first gap and wait before the road's end for one",
-                self.net.shifts.get()
+                self.shifted_routes
             ));
         }
         if self.unrouted > 0 {

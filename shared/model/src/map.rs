@@ -286,6 +286,11 @@ pub struct DepartureDef {
     /// Lanes in driving order, the first one the spawn lane.
     pub route: Vec<String>,
     pub prefab: String,
+    /// Lane routes as good as `route` from other lanes of its first road: a
+    /// vehicle whose spawn lane has no room departs on one of these that has
+    /// (SUMO's `departLane="best"`).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub other_routes: Vec<Vec<String>>,
 }
 
 impl SimulatorDef {
@@ -311,13 +316,22 @@ impl SimulatorDef {
             SimulatorDef::Demand { departures } => departures
                 .iter()
                 .enumerate()
-                .map(|(k, d)| {
-                    (
+                .flat_map(|(k, d)| {
+                    let others = d.other_routes.iter().enumerate().map(move |(j, r)| {
+                        (
+                            format!("departures[{k}].other_routes[{j}]"),
+                            r.as_slice(),
+                            format!("departures[{k}].prefab"),
+                            vec![&d.prefab],
+                        )
+                    });
+                    std::iter::once((
                         format!("departures[{k}].route"),
                         d.route.as_slice(),
                         format!("departures[{k}].prefab"),
                         vec![&d.prefab],
-                    )
+                    ))
+                    .chain(others)
                 })
                 .collect(),
         }

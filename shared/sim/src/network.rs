@@ -109,10 +109,18 @@ pub enum SimulatorSpec {
         maximum_spawns: u32,
         enabled: bool,
     },
-    /// Departures in time order: (time, route, kind).
-    Demand {
-        departures: Vec<(f64, std::sync::Arc<[LaneId]>, usize)>,
-    },
+    /// Departures in time order.
+    Demand { departures: Vec<Departure> },
+}
+
+/// One vehicle of a timetable.
+#[derive(Clone, Debug)]
+pub struct Departure {
+    pub time: f64,
+    /// Equally good lane routes, the preferred one first; the vehicle
+    /// departs on the first lane of one that has room.
+    pub routes: Vec<std::sync::Arc<[LaneId]>>,
+    pub kind: usize,
 }
 
 #[derive(Clone, Debug)]
@@ -226,15 +234,16 @@ impl LaneNetwork {
                 SimulatorDef::Demand { departures } => {
                     let mut departures: Vec<_> = departures
                         .iter()
-                        .map(|d| {
-                            (
-                                d.time,
-                                d.route.iter().map(id).collect(),
-                                kind_index(&d.prefab),
-                            )
+                        .map(|d| Departure {
+                            time: d.time,
+                            routes: std::iter::once(&d.route)
+                                .chain(&d.other_routes)
+                                .map(|r| r.iter().map(id).collect())
+                                .collect(),
+                            kind: kind_index(&d.prefab),
                         })
                         .collect();
-                    departures.sort_by(|a, b| a.0.total_cmp(&b.0));
+                    departures.sort_by(|a, b| a.time.total_cmp(&b.time));
                     SimulatorSpec::Demand { departures }
                 }
             })
