@@ -251,17 +251,24 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             // where lanes diverge or merge.
             let diverges = predecessors[i].iter().any(|&p| successors[p].len() > 1);
             let merges = successors[i].iter().any(|&n| predecessors[n].len() > 1);
+            let intersection = l.turn.is_some() || diverges || merges;
             LaneDef {
                 name: lane_name(l.id),
                 waypoints: l.centre.iter().map(|p| Point(*p)).collect(),
                 width: l.width,
-                speed_limit: l.speed,
+                // A turn is driven no faster than its bend allows, as
+                // netconvert limits SUMO's junction lanes.
+                speed_limit: if intersection {
+                    l.speed.min(turn_speed(&l.centre))
+                } else {
+                    l.speed
+                },
                 next: successors[i]
                     .iter()
                     .map(|&n| lane_name(lanelets[n].id))
                     .collect(),
                 prev: Vec::new(),
-                intersection: l.turn.is_some() || diverges || merges,
+                intersection,
                 turn_direction: l.turn.unwrap_or_default(),
                 stop_line: None,
                 traffic_light: None,
@@ -452,6 +459,40 @@ fn at_fraction(line: &[Xy], t: f64) -> Xy {
 }
 
 /// Midpoints of the two bounds sampled at the same length fractions, and the mean width.
+/// Lateral acceleration a turn is driven at, m/s² (netconvert's default for
+/// `junctions.limit-turn-speed`).
+const TURN_LATERAL_ACCEL: f64 = 5.5;
+
+/// Points closer than this are merged before bends are measured, so that
+/// digitising noise does not read as a tight bend.
+const BEND_SPACING: f64 = 2.0;
+
+/// The speed the tightest bend of `points` allows, sqrt(a · r); infinite
+/// on a straight line.
+fn turn_speed(points: &[Xy]) -> f64 {
+    let mut spaced: Vec<Xy> = Vec::with_capacity(points.len());
+    for p in points {
+        if spaced.last().is_none_or(|q| dist(*q, *p) >= BEND_SPACING) {
+            spaced.push(*p);
+        }
+    }
+    let radius = spaced
+        .windows(3)
+        .map(|w| {
+            let (a, b, c) = (dist(w[0], w[1]), dist(w[1], w[2]), dist(w[0], w[2]));
+            let cross = (w[1][0] - w[0][0]) * (w[2][1] - w[0][1])
+                - (w[1][1] - w[0][1]) * (w[2][0] - w[0][0]);
+            // The circle through the three points: r = abc / (4 area).
+            if cross.abs() < 1e-9 {
+                f64::INFINITY
+            } else {
+                a * b * c / (2.0 * cross.abs())
+            }
+        })
+        .fold(f64::INFINITY, f64::min);
+    (TURN_LATERAL_ACCEL * radius).sqrt()
+}
+
 fn centreline(left: &[Xy], right: &[Xy]) -> (Vec<Xy>, f64) {
     let n = left.len().max(right.len()).clamp(2, 200);
     let mut centre: Vec<Xy> = Vec::with_capacity(n);
@@ -578,4 +619,25 @@ fn synthesise_programs(
         info.len()
     ));
     groups
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_turn_is_driven_as_fast_as_its_bend_allows() {
+        // A quarter circle of 10 m radius, a point every metre of arc.
+        let arc: Vec<Xy> = (0..=16)
+            .map(|i| {
+                let a = i as f64 / 16.0 * std::f64::consts::FRAC_PI_2;
+                [10.0 * a.cos(), 10.0 * a.sin(), 0.0]
+            })
+            .collect();
+        let v = turn_speed(&arc);
+        assert!((v - (5.5f64 * 10.0).sqrt()).abs() < 0.2, "{v}");
+        // A straight line, even with points a few centimetres apart, has none.
+        let line: Vec<Xy> = (0..50).map(|i| [i as f64 * 0.05, 0.0, 0.0]).collect();
+        assert!(turn_speed(&line).is_infinite());
+    }
 }

@@ -88,7 +88,10 @@ fn realistic_speed(
     dt: f64,
 ) -> f64 {
     let mut desired = speed_limit.min(idm.max_speed);
-    if v.is_turning {
+    // With every lane's own limit in force the map gives the turn speeds
+    // (netconvert's on SUMO junctions, the importer's on Lanelet2 ones), as
+    // SUMO takes them; one speed for every lane knows no turns.
+    if v.is_turning && c.speed_limit_source == SpeedLimitSource::FixedSpeedLimit {
         desired = desired.min(TURN_SPEED);
     }
     let follow =
