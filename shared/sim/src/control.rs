@@ -67,7 +67,7 @@ pub fn step_speed(
             let (target, rate) = speed_target(v.speed_mode, speed_limit, c);
             move_towards(v.speed, target, rate * dt).max(0.0)
         }
-        DriverModel::Realistic(idm) => realistic_speed(v, c, &idm, stops, speed_limit, dt),
+        DriverModel::Realistic(idm) => realistic_speed(net, v, c, &idm, stops, speed_limit, dt),
     };
     v.acceleration = (new_speed - v.speed) / dt;
     v.speed = new_speed;
@@ -80,6 +80,7 @@ pub fn step_speed(
 /// reference's rules say to stop at, braking no harder than the absolute
 /// deceleration.
 fn realistic_speed(
+    net: &LaneNetwork,
     v: &Vehicle,
     c: &NpcVehicleConfig,
     idm: &IdmParams,
@@ -91,8 +92,12 @@ fn realistic_speed(
     // With every lane's own limit in force the map gives the turn speeds
     // (netconvert's on SUMO junctions, the importer's on Lanelet2 ones), as
     // SUMO takes them; one speed for every lane knows no turns.
-    if v.is_turning && c.speed_limit_source == SpeedLimitSource::FixedSpeedLimit {
-        desired = desired.min(TURN_SPEED);
+    match c.speed_limit_source {
+        SpeedLimitSource::FixedSpeedLimit if v.is_turning => desired = desired.min(TURN_SPEED),
+        SpeedLimitSource::FixedSpeedLimit => {}
+        SpeedLimitSource::LaneletSpeedLimit => {
+            desired = desired.min(limit_ahead(net, v, idm.decel));
+        }
     }
     let follow =
         crate::idm::acceleration(idm, v.speed, desired, v.distance_to_front, v.front_speed);
@@ -107,6 +112,27 @@ fn realistic_speed(
     );
     let a = follow.min(stop).max(-c.absolute_deceleration);
     (v.speed + a * dt).max(0.0)
+}
+
+/// How far ahead a lower lane limit is slowed for, metres.
+const LIMIT_LOOKAHEAD: f64 = 100.0;
+
+/// The highest speed from which every lane limit on the path ahead (within
+/// the look-ahead) is met braking at `decel` before that lane begins: drivers
+/// slow for a turn before they reach it, as SUMO's do, instead of braking
+/// hard once on it.
+fn limit_ahead(net: &LaneNetwork, v: &Vehicle, decel: f64) -> f64 {
+    let mut allowed = f64::INFINITY;
+    let mut distance = net.lane(v.path[0]).length() - v.s;
+    for &lane in &v.path[1..] {
+        if distance > LIMIT_LOOKAHEAD {
+            break;
+        }
+        let limit = net.lane(lane).speed_limit;
+        allowed = allowed.min((limit * limit + 2.0 * decel * distance.max(0.0)).sqrt());
+        distance += net.lane(lane).length();
+    }
+    allowed
 }
 
 /// Recomputes pose, front and back points from the arc position. Both bumpers
