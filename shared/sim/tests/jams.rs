@@ -138,3 +138,57 @@ fn a_vehicle_held_by_a_red_light_is_neither_stuck_nor_jammed() {
     assert_eq!(w.stuck_vehicles(), 0);
     assert_eq!(w.wait_stats().jam_resolutions, 0);
 }
+
+/// "Don't block the box" through a junction of two lanes (a left turn past
+/// the junction's inner point): with the exit taken, a vehicle waits before
+/// the first junction lane, not inside the box, where it would block the
+/// crossing traffic and lock the junction.
+#[test]
+fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
+    let mut inner = lane("junction_a", &[[400.0, 0.0], [410.0, 0.0]], &["junction_b"]);
+    inner["intersection"] = json!(true);
+    let mut outer = lane("junction_b", &[[410.0, 0.0], [420.0, 0.0]], &["exit"]);
+    outer["intersection"] = json!(true);
+    let lanes = vec![
+        lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction_a"]),
+        inner,
+        outer,
+        lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]),
+    ];
+    // A walker who never leaves holds the exit's first vehicle just past the box.
+    let m = map(
+        lanes,
+        json!({
+            "crosswalks": [{
+                "name": "Zebra",
+                "area": { "shape": "box", "center": [432.0, 0.0], "half_extents": [2.0, 6.0] },
+                "stop_points": [{ "position": [428.0, 0.0] }]
+            }]
+        }),
+    );
+    let mut w = world(&m, WorldConfig::default());
+    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+        .unwrap();
+    let blocker = w
+        .place_vehicle_on_route("Taxi", &["exit"], 6.0, 0.0)
+        .unwrap();
+    let id = w
+        .place_vehicle_on_route(
+            "Taxi",
+            &["east", "junction_a", "junction_b", "exit"],
+            300.0,
+            10.0,
+        )
+        .unwrap();
+    run_for(&mut w, 60.0);
+    assert!(vehicle(&w, blocker).s < 10.0, "the exit stays taken");
+    let v = vehicle(&w, id);
+    assert_eq!(
+        w.network().lane(v.path[0]).name,
+        "east",
+        "it entered the box: on {} at s {:.1}",
+        w.network().lane(v.path[0]).name,
+        v.s
+    );
+    assert!(v.speed < 0.1, "it waits");
+}

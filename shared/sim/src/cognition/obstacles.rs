@@ -61,7 +61,15 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     };
     let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
+    // Where the junction ahead begins: a movement through several junction
+    // lanes whose exit is blocked waits before the first, not inside the box.
+    let mut box_entry = f64::INFINITY;
     for (k, lane, offset) in lanes_ahead(net, v) {
+        if !net.lane(lane).intersection {
+            box_entry = f64::INFINITY;
+        } else if box_entry.is_infinite() {
+            box_entry = offset;
+        }
         if offset > search.range || offset > best.distance {
             break;
         }
@@ -77,7 +85,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             && let Some(exit) = exit_blocked_by(snap, v, k)
         {
             best = best.nearer(FrontObstacle {
-                distance: offset.max(0.0),
+                distance: box_entry.min(offset).max(0.0),
                 vehicle: Some(exit),
             });
         }
