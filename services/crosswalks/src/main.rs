@@ -14,8 +14,7 @@ use glam::DVec2;
 use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
 use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{
-    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, LockstepTick,
-    TickReport,
+    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, TickReport,
 };
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
@@ -183,7 +182,10 @@ async fn follow_lockstep(
         );
         async move {
             tick.spawn_verdicts.clear();
-            let batches = agents_in_step(&bus, &sources_key, &tick, &required).await;
+            let batches = bus
+                .lockstep_round_of::<AgentBatch>(&sources_key, &tick, &required, || true)
+                .await
+                .unwrap_or_default();
             let changed = {
                 let mut guard = areas.lock().expect("areas lock");
                 let a = &mut *guard;
@@ -217,41 +219,6 @@ async fn follow_lockstep(
     })
     .await?;
     Ok(())
-}
-
-/// Every agent source's answer to `tick`, asked again until the required
-/// sources have answered.
-async fn agents_in_step(
-    bus: &Bus,
-    key: &str,
-    tick: &LockstepTick,
-    required: &[String],
-) -> BTreeMap<String, AgentBatch> {
-    let mut waited = false;
-    loop {
-        let missing = match bus.lockstep_round::<AgentBatch>(key, tick).await {
-            Ok(batches) => {
-                let missing: Vec<&str> = required
-                    .iter()
-                    .filter(|s| !batches.contains_key(*s))
-                    .map(String::as_str)
-                    .collect();
-                if missing.is_empty() {
-                    return batches;
-                }
-                missing.join(", ")
-            }
-            Err(e) => e.to_string(),
-        };
-        if !waited {
-            tracing::warn!(
-                "lockstep: tick {} waits for the agents of {missing}",
-                tick.tick
-            );
-            waited = true;
-        }
-        tokio::time::sleep(Duration::from_millis(100)).await;
-    }
 }
 
 /// `agents/*`: each source's full set of agents.

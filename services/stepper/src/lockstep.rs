@@ -6,7 +6,6 @@
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
-use std::time::Duration;
 
 use trafficmesh_bus::Bus;
 use trafficmesh_model::wire::{LockstepTick, SpawnVerdict, TickReport};
@@ -24,9 +23,6 @@ pub struct Lockstep {
     /// Who answered the last round.
     pub members: Vec<String>,
 }
-
-/// Asked again after this long while a required member has not answered.
-const RETRY: Duration = Duration::from_millis(100);
 
 impl Lockstep {
     pub fn new(bus: Arc<Bus>, runtime: tokio::runtime::Handle, required: Vec<String>) -> Self {
@@ -56,46 +52,19 @@ impl Lockstep {
     pub fn round(
         &mut self,
         tick: &LockstepTick,
-        mut keep_going: impl FnMut() -> bool,
+        keep_going: impl FnMut() -> bool,
     ) -> Option<BTreeMap<String, TickReport>> {
         let key = self.bus.keys().lockstep_members();
-        let mut waited = false;
-        loop {
-            let missing = match self
-                .runtime
-                .block_on(self.bus.lockstep_round::<TickReport>(&key, tick))
-            {
-                Ok(answers) => {
-                    let missing: Vec<&str> = self
-                        .required
-                        .iter()
-                        .filter(|m| !answers.contains_key(*m))
-                        .map(String::as_str)
-                        .collect();
-                    if missing.is_empty() {
-                        if waited {
-                            tracing::info!("lockstep: every member answered tick {}", tick.tick);
-                        }
-                        self.members = answers.keys().cloned().collect();
-                        return Some(answers);
-                    }
-                    missing.join(", ")
-                }
-                Err(e) => e.to_string(),
-            };
-            if !waited {
-                tracing::warn!(
-                    "lockstep: tick {} waits for {missing} (t={:.2})",
-                    tick.tick,
-                    tick.time
-                );
-                waited = true;
-            }
-            if !keep_going() {
-                return None;
-            }
-            std::thread::sleep(RETRY);
-        }
+        let answers = self
+            .runtime
+            .block_on(self.bus.lockstep_round_of::<TickReport>(
+                &key,
+                tick,
+                &self.required,
+                keep_going,
+            ))?;
+        self.members = answers.keys().cloned().collect();
+        Some(answers)
     }
 }
 

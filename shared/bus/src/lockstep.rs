@@ -17,6 +17,9 @@ use crate::{Bus, BusError, Keys};
 /// How long one round waits for a member; a slower one is asked again.
 pub const ROUND_TIMEOUT: Duration = Duration::from_secs(5);
 
+/// How long a round that missed a required member waits before it asks again.
+const RETRY: Duration = Duration::from_millis(100);
+
 impl Bus {
     /// Asks every queryable on `key` (a wildcard) for `tick` and returns each
     /// answer by the last chunk of the key it came from, in name order. An
@@ -50,6 +53,50 @@ impl Bus {
             }
         }
         Ok(answers)
+    }
+
+    /// `lockstep_round` until every `required` member has answered; logs once
+    /// whom the tick waits for. `keep_going` runs between attempts and ends
+    /// the wait with `None` when it returns false.
+    pub async fn lockstep_round_of<R: DeserializeOwned>(
+        &self,
+        key: &str,
+        tick: &LockstepTick,
+        required: &[String],
+        mut keep_going: impl FnMut() -> bool,
+    ) -> Option<BTreeMap<String, R>> {
+        let mut waited = false;
+        loop {
+            let missing = match self.lockstep_round::<R>(key, tick).await {
+                Ok(answers) => {
+                    let missing: Vec<&str> = required
+                        .iter()
+                        .filter(|m| !answers.contains_key(*m))
+                        .map(String::as_str)
+                        .collect();
+                    if missing.is_empty() {
+                        if waited {
+                            tracing::info!("lockstep: {key} answered tick {}", tick.tick);
+                        }
+                        return Some(answers);
+                    }
+                    missing.join(", ")
+                }
+                Err(e) => e.to_string(),
+            };
+            if !waited {
+                tracing::warn!(
+                    "lockstep: tick {} (t={:.2}) waits for {missing} on {key}",
+                    tick.tick,
+                    tick.time
+                );
+                waited = true;
+            }
+            if !keep_going() {
+                return None;
+            }
+            tokio::time::sleep(RETRY).await;
+        }
     }
 
     /// Serves `key` as a lockstep member: `answer` runs once per tick, in the
