@@ -173,7 +173,9 @@ async fn follow_lockstep(
 ) -> Result<()> {
     let key = bus.keys().lockstep_member("crosswalks");
     let sources_key = bus.keys().lockstep_all_agents();
+    let mut vouch = Vouch::new(validity);
     bus.answer_ticks(&key, |mut tick| {
+        let heartbeat = vouch.due(tick.time);
         let (bus, areas, required, sources_key) = (
             bus.clone(),
             areas.clone(),
@@ -211,10 +213,7 @@ async fn follow_lockstep(
                     .collect::<Vec<_>>()
             };
             publish(&bus, changed.clone()).await;
-            TickReport::Crosswalks {
-                changed,
-                valid_until: tick.time + validity,
-            }
+            TickReport::Crosswalks { changed, heartbeat }
         }
     })
     .await?;

@@ -152,11 +152,13 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
 /// on the state keys for everyone else.
 async fn follow_lockstep(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
     let key = bus.keys().lockstep_member("lights");
+    let mut vouch = Vouch::new(validity);
     bus.answer_ticks(&key, |tick| {
         let changed = groups
             .lock()
             .expect("lights lock")
             .advance(tick.time, validity);
+        let heartbeat = vouch.due(tick.time);
         let bus = bus.clone();
         async move {
             for s in &changed {
@@ -164,10 +166,7 @@ async fn follow_lockstep(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f6
                     tracing::warn!("cannot publish a light state: {e}");
                 }
             }
-            TickReport::Lights {
-                changed,
-                valid_until: tick.time + validity,
-            }
+            TickReport::Lights { changed, heartbeat }
         }
     })
     .await?;

@@ -39,12 +39,18 @@ pub struct StepperStatus {
     pub lights_stale: bool,
     pub crosswalks_stale: bool,
     /// The run's trajectory hash so far (`sim` prints the same for the same run).
-    pub trajectory_hash: String,
+    #[serde(serialize_with = "hex")]
+    pub trajectory_hash: u64,
     /// Whether each tick waits for the lockstep members, and who answered last.
     pub lockstep: bool,
     pub lockstep_members: Vec<String>,
     /// The NPCVehicleConfig in force (accelerations, speed limit, driver model).
     pub vehicle_config: trafficmesh_model::NpcVehicleConfig,
+}
+
+/// A trajectory hash as `sim --json` prints it (16 hex digits).
+fn hex<S: serde::Serializer>(hash: &u64, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(&format!("{hash:016x}"))
 }
 
 #[derive(Debug, Default)]

@@ -16,6 +16,8 @@ use crate::commands::InputState;
 pub struct Lockstep {
     bus: Arc<Bus>,
     runtime: tokio::runtime::Handle,
+    /// `<cluster>/lockstep/step/*`.
+    key: String,
     /// Members without whose answer no tick starts.
     required: Vec<String>,
     /// The verdicts on the spawner's last orders, sent with the next round.
@@ -27,6 +29,7 @@ pub struct Lockstep {
 impl Lockstep {
     pub fn new(bus: Arc<Bus>, runtime: tokio::runtime::Handle, required: Vec<String>) -> Self {
         Lockstep {
+            key: bus.keys().lockstep_members(),
             bus,
             runtime,
             required,
@@ -54,16 +57,18 @@ impl Lockstep {
         tick: &LockstepTick,
         keep_going: impl FnMut() -> bool,
     ) -> Option<BTreeMap<String, TickReport>> {
-        let key = self.bus.keys().lockstep_members();
         let answers = self
             .runtime
             .block_on(self.bus.lockstep_round_of::<TickReport>(
-                &key,
+                &self.key,
                 tick,
                 &self.required,
                 keep_going,
             ))?;
-        self.members = answers.keys().cloned().collect();
+        // Members come and go rarely: no copies while they stay the same.
+        if !self.members.iter().eq(answers.keys()) {
+            self.members = answers.keys().cloned().collect();
+        }
         Some(answers)
     }
 }
@@ -77,40 +82,38 @@ pub fn apply(
     answers: BTreeMap<String, TickReport>,
 ) {
     for (member, report) in answers {
-        let key = bus.keys().lockstep_member(&member);
+        let reject = |reason: String| bus.reject(&bus.keys().lockstep_member(&member), &reason);
         match report {
-            TickReport::Lights {
-                changed,
-                valid_until,
-            } => {
+            TickReport::Lights { changed, heartbeat } => {
                 inputs.in_step.lights = true;
                 for s in changed {
                     if let Err(e) = world.set_remote_light(&s.group, s.color, s.valid_until) {
-                        bus.reject(&key, &e.to_string());
+                        reject(e.to_string());
                     }
                 }
-                world.extend_remote_lights(valid_until);
+                if let Some(beat) = heartbeat {
+                    world.extend_remote_lights(beat.valid_until);
+                }
             }
-            TickReport::Crosswalks {
-                changed,
-                valid_until,
-            } => {
+            TickReport::Crosswalks { changed, heartbeat } => {
                 inputs.in_step.crosswalks = true;
                 for o in changed {
                     if let Err(e) =
                         world.set_crosswalk_occupants(&o.area, o.occupants.into_iter().collect())
                     {
-                        bus.reject(&key, &e.to_string());
+                        reject(e.to_string());
                     }
                 }
-                inputs.crosswalks_valid_until = valid_until;
+                if let Some(beat) = heartbeat {
+                    inputs.crosswalks_valid_until = beat.valid_until;
+                }
             }
             TickReport::Spawner { orders, config } => {
                 inputs.in_step.spawner = true;
                 if let Some(config) = config
                     && let Err(e) = world.set_spawn_config(config)
                 {
-                    bus.reject(&key, &e.to_string());
+                    reject(e.to_string());
                 }
                 inputs.queue_lockstep_spawns(world, orders);
             }

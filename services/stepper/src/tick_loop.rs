@@ -143,8 +143,10 @@ pub fn run(
             s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
             s.crosswalks_stale = world.occupancy().is_stale();
             s.lights_stale = world.lights_stale();
-            s.trajectory_hash = format!("{:016x}", world.trajectory_hash());
-            if let Some(lockstep) = &pacing.lockstep {
+            s.trajectory_hash = world.trajectory_hash();
+            if let Some(lockstep) = &pacing.lockstep
+                && s.lockstep_members != lockstep.members
+            {
                 s.lockstep_members.clone_from(&lockstep.members);
             }
         }

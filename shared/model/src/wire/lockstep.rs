@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::{CrosswalkOccupancy, LightState, SpawnBatch, SpawnVerdict};
+use super::{CrosswalkOccupancy, Heartbeat, LightState, SpawnBatch, SpawnVerdict};
 use crate::TrafficSpawnConfig;
 
 /// Query payload of `<cluster>/lockstep/step/*` (stepper → members) and
@@ -27,15 +27,18 @@ pub struct LockstepTick {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum TickReport {
-    /// The groups whose colour changed, and until when every state holds.
+    /// The groups whose colour changed, and the heartbeat when one is due
+    /// (every validity/4, as on `lights/heartbeat`).
     Lights {
         changed: Vec<LightState>,
-        valid_until: f64,
+        #[serde(default)]
+        heartbeat: Option<Heartbeat>,
     },
-    /// The areas whose occupants changed, and until when every state holds.
+    /// The areas whose occupants changed, and the heartbeat when one is due.
     Crosswalks {
         changed: Vec<CrosswalkOccupancy>,
-        valid_until: f64,
+        #[serde(default)]
+        heartbeat: Option<Heartbeat>,
     },
     /// This tick's spawn orders, and the spawn config when it changed since
     /// the last answer (always in the first).
