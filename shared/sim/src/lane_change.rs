@@ -7,7 +7,7 @@
 
 use trafficmesh_model::{DriverModel, NpcVehicleConfig};
 
-use crate::decision::{MIN_FRONT_VEHICLE_DISTANCE, StopDistances};
+use crate::decision::MIN_FRONT_VEHICLE_DISTANCE;
 use crate::lane_index::LaneIndex;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::Vehicle;
@@ -15,6 +15,9 @@ use crate::vehicle::Vehicle;
 /// Siblings have lengths within this of each other and start within this far
 /// apart, metres.
 const SIBLING_TOLERANCE: f64 = 12.0;
+
+/// Seconds the one behind takes to react to a car moving in ahead of it.
+const REACTION_TIME: f64 = 1.0;
 
 /// What follows from the first two lanes of the path, kept up to date by
 /// whatever changes them (lane following, a lane change): the lane change they
@@ -143,9 +146,14 @@ impl<'c> Gaps<'c> {
     }
 
     /// The room needed ahead of the one behind, closing in at `closing` m/s:
-    /// no more than a sudden stop (never an absolute one) keeps the standstill gap.
+    /// after a second's reaction, no more than a sudden stop (never an
+    /// absolute one) keeps the standstill gap. Between two standing bodies the
+    /// standstill gap is enough: a queue that lets a car in leaves just that.
     fn needed(&self, closing: f64) -> f64 {
-        self.standstill + StopDistances::at(closing.max(0.0), self.config).sudden
+        let closing = closing.max(0.0);
+        self.standstill
+            + closing * REACTION_TIME
+            + closing * closing / (2.0 * self.config.sudden_deceleration)
     }
 }
 

@@ -129,3 +129,57 @@ fn a_vehicle_that_changes_lanes_standing_still_is_drawn_on_its_new_lane() {
         assert!((y - 3.2).abs() < 1e-9, "{what} at y = {y}, not on a1");
     }
 }
+
+#[test]
+fn a_queue_starting_up_lets_in_a_car_waiting_at_its_lane_end() {
+    let config = WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model: trafficmesh_model::DriverModel::by_name("realistic").unwrap(),
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    let mut w = world(&two_lane_road(), config);
+    // Standing at the end of a0, its route going on from a1.
+    let waiting = w
+        .place_vehicle_on_route("Taxi", &["a0", "j1", "x1"], 190.0, 0.0)
+        .unwrap();
+    // A queue standing on a1, bumper to bumper beside and behind it: at the
+    // pace it starts up, no gap of its own is ever wide enough.
+    let queue: Vec<u64> = (0..8)
+        .map(|k| {
+            w.place_vehicle("Taxi", "a1", 196.0 - 7.0 * k as f64, 0.0)
+                .unwrap()
+        })
+        .collect();
+    let mut ids = vec![waiting];
+    ids.extend(&queue);
+    let mut entered: Vec<Option<f64>> = vec![None; ids.len()];
+    let done = run_until(&mut w, 120.0, |w| {
+        assert!(
+            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            "overlap at t={:.2}",
+            w.time()
+        );
+        for (k, &id) in ids.iter().enumerate() {
+            if entered[k].is_none()
+                && w.vehicle(id)
+                    .is_none_or(|_| lane_of(w, id) != "a0" && lane_of(w, id) != "a1")
+            {
+                entered[k] = Some(w.time());
+            }
+        }
+        entered.iter().all(Option::is_some)
+    });
+    assert!(done, "everyone reaches the junction");
+    let waiting_at = entered[0].unwrap();
+    let ahead = entered[1..]
+        .iter()
+        .filter(|t| t.unwrap() < waiting_at)
+        .count();
+    // The one beside it and the next go first; the queue behind lets it in.
+    assert!(
+        ahead <= 3,
+        "{ahead} of the queue went before the waiting car (it entered at {waiting_at:.1} s)"
+    );
+}

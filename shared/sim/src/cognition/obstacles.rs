@@ -142,13 +142,20 @@ impl Search<'_, '_> {
             let rear = offset + occ.rear;
             let front = offset + occ.front;
             // A vehicle waiting to change onto this lane is given room by those
-            // who can still stop before it; one already beside it drives on.
-            if occ.ghost && rear < ghost_room(v.speed, self.snap.config) {
+            // who can still stop short of it, braking as for a car cutting in
+            // (SUMO's cooperative lane change); one already beside it, or too
+            // near to leave it room, drives on.
+            if occ.ghost
+                && (rear < GHOST_MARGIN + ghost_room(self.snap.net, v, self.snap.config)
+                    || !urgent(self.snap.net, &self.snap.vehicles[occ.vehicle as usize]))
+            {
                 continue;
             }
             if rear > -v.length && front > 0.0 {
+                // Room for the waiting car's own gap behind it, too.
+                let margin = if occ.ghost { GHOST_MARGIN } else { 0.0 };
                 return FrontObstacle {
-                    distance: rear.max(0.0),
+                    distance: (rear - margin).max(0.0),
                     vehicle: Some(occ.vehicle),
                 };
             }
@@ -253,11 +260,34 @@ impl Search<'_, '_> {
     }
 }
 
-/// How far ahead a lane-change ghost must be for a vehicle to stop for it: where
-/// the Decision step would start a normal stop.
-fn ghost_room(speed: f64, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
-    crate::decision::MIN_FRONT_VEHICLE_DISTANCE
-        + crate::decision::StopDistances::at(speed, config).stop
+/// Whether a vehicle waiting to change lanes needs the gap made for it: near
+/// its lane's end or slowed down for want of one. Before that it finds gaps
+/// in the traffic as it comes (SUMO's drivers cooperate with urgent changes).
+fn urgent(net: &LaneNetwork, changer: &Vehicle) -> bool {
+    changer.speed < URGENT_SPEED || net.lane(changer.path[0]).length() - changer.s < URGENT_DISTANCE
+}
+
+/// A waiting lane changer slower than this, m/s, is given a gap.
+const URGENT_SPEED: f64 = 3.0;
+/// A waiting lane changer this near its lane's end, metres, is given a gap.
+const URGENT_DISTANCE: f64 = 50.0;
+
+/// Metres more than to a body that a vehicle stays behind a lane-change
+/// ghost: it stops that much further back than behind a car, so that the
+/// gap it leaves is enough for the waiting car to move in.
+const GHOST_MARGIN: f64 = 2.0;
+
+/// How far ahead a lane-change ghost must be for a vehicle to stop for it: its
+/// braking distance at the deceleration it accepts for a car cutting in (a
+/// realistic driver's comfortable one, the reference's sudden stop), beyond
+/// [`GHOST_MARGIN`]. A queue standing behind it waits, so that it lets the
+/// waiting car in.
+fn ghost_room(net: &LaneNetwork, v: &Vehicle, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
+    let decel = match crate::control::driver_model(net, v, config) {
+        trafficmesh_model::DriverModel::Awsim => config.sudden_deceleration,
+        trafficmesh_model::DriverModel::Realistic(idm) => idm.decel,
+    };
+    v.speed * v.speed / (2.0 * decel)
 }
 
 /// "Don't block the box": the vehicle that leaves no room on the lane after
