@@ -4,7 +4,7 @@
 //! memory, and trip statistics.
 //!
 //! The two count steps differently: SUMO steps every vehicle once per
-//! simulated second by default, trafficmesh 50 times (dt 0.02 s). The figures
+//! simulated second by default, trafficmesh 50 times (dt 0.02 s; `--dt`). The figures
 //! are per vehicle-step as each simulator defines it; `speedup` divides
 //! trafficmesh's vehicle-steps per second by SUMO's, as the issue asks.
 
@@ -35,6 +35,9 @@ pub struct VsSumoArgs {
     /// Rounds, alternating SUMO and trafficmesh; the median round is reported.
     #[arg(long, default_value_t = 1)]
     rounds: usize,
+    /// trafficmesh's tick length, seconds (`sim --dt`; default its 0.02).
+    #[arg(long)]
+    dt: Option<f64>,
     /// The `sumo` binary (default: TRAFFICMESH_SUMO, `sumo` on PATH, then the
     /// virtualenv `.ci/run` makes).
     #[arg(long, env = "TRAFFICMESH_SUMO")]
@@ -316,6 +319,9 @@ fn run_trafficmesh(a: &VsSumoArgs, perf: bool, scratch: &Path) -> Result<Figures
     }
     if let Some(end) = a.run_length() {
         cmd.args(["--duration", &end.to_string()]);
+    }
+    if let Some(dt) = a.dt {
+        cmd.args(["--dt", &dt.to_string()]);
     }
     // SUMO's side has no built-in walkers: neither has ours.
     cmd.args(["--pedestrians", "0", "--json", "--out"])
