@@ -143,7 +143,7 @@ fn grid_with_crossings_imports_as_sumolib_reads_it() {
 /// and vehicles stop for them; once they have left, traffic crosses again.
 #[test]
 fn pedestrians_on_imported_crossings_stop_traffic_until_they_leave() {
-    let net = trafficmesh_maps::load_network(&grid_with_crossings()).unwrap();
+    let net = trafficmesh_service::load_network(&grid_with_crossings()).unwrap();
     let areas: Vec<(String, Vec<glam::DVec2>)> = net
         .crosswalks
         .iter()
@@ -259,7 +259,7 @@ fn vehicles_on_cross_net_obey_the_imported_signal_program() {
     let Some(path) = shared_map("cross.net.xml") else {
         return;
     };
-    let net = trafficmesh_maps::load_network(&path).unwrap();
+    let net = trafficmesh_service::load_network(&path).unwrap();
     let junction_lanes: Vec<trafficmesh_sim::LaneId> = (0..4)
         .map(|k| net.lane_id(&format!(":junction_{k}_0")).unwrap())
         .collect();
@@ -277,7 +277,7 @@ fn vehicles_on_cross_net_obey_the_imported_signal_program() {
 #[test]
 fn routed_vehicles_on_the_grid_obey_the_imported_signal_programs() {
     let (net, _) =
-        trafficmesh_maps::load_network_with_routes(&grid_with_crossings(), Some(&grid_demand()))
+        trafficmesh_service::load_network_with_routes(&grid_with_crossings(), Some(&grid_demand()))
             .unwrap();
     let mut world = world_of(net, 4, 100_000);
     let entered = entries_past_signals(&mut world, 900.0);
@@ -351,7 +351,7 @@ fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     }
     // Ten simulated minutes without two vehicles overlapping, for several seeds.
     for seed in 1..=5 {
-        let net = trafficmesh_maps::load_network(&osm).unwrap();
+        let net = trafficmesh_service::load_network(&osm).unwrap();
         let mut world = world_of(net, seed, 40);
         let what = format!("{file}, seed {seed}");
         let mut spawned = 0;
@@ -504,7 +504,7 @@ fn saturated_grid_demand() -> PathBuf {
 /// or swap.
 #[test]
 fn a_sumo_demand_on_a_signalised_grid_runs_to_its_end_without_gridlock() {
-    let (net, _) = trafficmesh_maps::load_network_with_routes(
+    let (net, _) = trafficmesh_service::load_network_with_routes(
         &grid_with_crossings(),
         Some(&saturated_grid_demand()),
     )
@@ -946,7 +946,7 @@ fn run_flows_by_lane(
     routes += "</routes>\n";
     let rou = net.with_extension("rou.xml");
     std::fs::write(&rou, routes).unwrap();
-    let (net, _) = trafficmesh_maps::load_network_with_routes(net, Some(&rou)).unwrap();
+    let (net, _) = trafficmesh_service::load_network_with_routes(net, Some(&rou)).unwrap();
     let mut w = World::new(
         net,
         WorldConfig {
@@ -1074,11 +1074,13 @@ fn bus_lanes_are_closed_to_cars_and_open_to_buses() {
 </routes>"#,
     )
     .unwrap();
-    let (network, _) =
-        trafficmesh_maps::load_network_with_routes(&net, Some(&dir.path().join("mixed.rou.xml")))
-            .unwrap();
+    let (network, _) = trafficmesh_service::load_network_with_routes(
+        &net,
+        Some(&dir.path().join("mixed.rou.xml")),
+    )
+    .unwrap();
     let mut routed = world_of(network, 0, usize::MAX);
-    let (network, _) = trafficmesh_maps::load_network_with_routes(&net, None).unwrap();
+    let (network, _) = trafficmesh_service::load_network_with_routes(&net, None).unwrap();
     let mut random = world_of(network, 0, 30);
     let mut arrived = std::collections::BTreeMap::<String, u32>::new();
     let mut on_bus_lanes = std::collections::BTreeSet::<String>::new();

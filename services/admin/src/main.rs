@@ -18,7 +18,7 @@ use std::time::Duration;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
-use trafficmesh_maps::MapArgs;
+use trafficmesh_service::MapArgs;
 
 #[derive(Parser)]
 #[command(

@@ -12,10 +12,10 @@ use anyhow::{Result, bail};
 use clap::Parser;
 use glam::DVec2;
 use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
-use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, TickReport,
 };
+use trafficmesh_service::MapArgs;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
 use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};

@@ -8,9 +8,9 @@ use std::sync::{Arc, Mutex};
 use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
-use trafficmesh_maps::MapArgs;
 use trafficmesh_model::wire::{Clock, LightOverride, LightState, TickReport};
 use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_service::MapArgs;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
 

@@ -15,7 +15,7 @@ use std::sync::{Arc, Mutex};
 use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
-use trafficmesh_maps::MapArgs;
+use trafficmesh_service::MapArgs;
 
 use crate::state::SpawnerState;
 
@@ -43,7 +43,7 @@ struct Args {
     #[arg(long)]
     max_vehicles: Option<usize>,
     #[command(flatten)]
-    spawn_distance: trafficmesh_maps::SpawnDistanceArgs,
+    spawn_distance: trafficmesh_service::SpawnDistanceArgs,
     /// Spawn config (the seed's traffic_spawn.json): loaded at start if it
     /// exists, and the file that save and load use.
     #[arg(long, default_value = "traffic_spawn.json")]

@@ -15,7 +15,7 @@ use std::sync::Arc;
 use anyhow::{Context, Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
-use trafficmesh_maps::MapArgs;
+use trafficmesh_service::MapArgs;
 use trafficmesh_sim::{World, WorldConfig};
 
 #[derive(Parser)]
@@ -57,7 +57,7 @@ pub struct Args {
     #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
     jam_timeout: f64,
     #[command(flatten)]
-    vehicle: trafficmesh_maps::VehicleArgs,
+    vehicle: trafficmesh_service::VehicleArgs,
     /// Start each tick only when the lockstep members (every process answering
     /// on <cluster>/lockstep/step/*) have answered for it: deterministic at any
     /// speed, the same trajectories as `sim`. `trafficmesh up` turns it on with

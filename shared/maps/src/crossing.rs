@@ -2,8 +2,8 @@
 //! crosswalk's polygon, set back a metre, with the lane's heading there.
 
 use glam::DVec2;
+use trafficmesh_model::geometry::point_in_polygon;
 use trafficmesh_model::map::{Point, StopPointDef};
-use trafficmesh_sim::geometry::point_in_polygon;
 
 /// Vehicles stop this far before a crosswalk's edge, metres.
 const STOP_BACK: f64 = 1.0;

@@ -143,24 +143,6 @@ fn lane(name: String, waypoints: Vec<Point>, speed_limit: f64) -> LaneDef {
     }
 }
 
-/// An empty world on the generated `size` x `size` grid with room for
-/// `max_vehicles`: what the benchmarks fill with
-/// [`trafficmesh_sim::populate::populate`].
-pub fn grid_world(
-    size: usize,
-    max_vehicles: usize,
-) -> Result<trafficmesh_sim::World, Vec<trafficmesh_model::map::MapProblem>> {
-    let net = trafficmesh_sim::LaneNetwork::build(&grid_map(&GridOptions {
-        size,
-        ..GridOptions::default()
-    }))?;
-    let config = trafficmesh_sim::WorldConfig {
-        max_vehicles,
-        ..trafficmesh_sim::WorldConfig::default()
-    };
-    Ok(trafficmesh_sim::World::new(net, config))
-}
-
 /// Builds the grid map. Junction (i, j) is centred at (i * block, j * block).
 pub fn grid_map(o: &GridOptions) -> MapFile {
     let n = o.size;

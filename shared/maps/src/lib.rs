@@ -3,7 +3,6 @@
 //! kept), the signalised-grid generator, and importers of foreign formats
 //! (SUMO `.net.xml`, Lanelet2 `.osm`).
 
-pub mod args;
 mod crossing;
 pub mod files;
 pub mod grid;
@@ -13,57 +12,13 @@ mod sumo;
 pub mod sumo_routes;
 pub mod sumocfg;
 
-pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
 pub use files::{
     FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,
 };
-pub use grid::{GridOptions, grid_map, grid_world};
+pub use grid::{GridOptions, grid_map};
 pub use import::{ImportError, Imported};
 pub use sumocfg::{Scenario, SumoConfig, load_scenario, read_sumocfg};
-
-/// Loads a map (any format), with a SUMO route file's demand in place of the
-/// map's own simulators when one is given, and compiles it; the route
-/// import's warnings come back with it.
-pub fn load_network_with_routes(
-    map: &std::path::Path,
-    routes: Option<&std::path::Path>,
-) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>), FileError> {
-    let Some(routes) = routes else {
-        return Ok((load_network(map)?, Vec::new()));
-    };
-    let mut file = load_map(map)?;
-    let demand = load_routes(routes, &file)?;
-    file.traffic_simulators = vec![demand.simulator];
-    file.vehicle_kinds.extend(demand.kinds);
-    Ok((build_network(&file, routes)?, demand.warnings))
-}
-
-/// Compiles a map read from `path` into the simulation's lane network, with
-/// every problem of the start-up checklist named against that file.
-pub fn build_network(
-    map: &trafficmesh_model::MapFile,
-    path: &std::path::Path,
-) -> Result<trafficmesh_sim::LaneNetwork, FileError> {
-    trafficmesh_sim::LaneNetwork::build(map).map_err(|problems| FileError::Invalid {
-        path: path.to_owned(),
-        problems,
-    })
-}
-
-/// A SUMO scenario's network with its demand (vTypes drawn with `seed`),
-/// the import's warnings, and the configuration.
-pub fn load_scenario_network(
-    path: &std::path::Path,
-    seed: u64,
-) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, SumoConfig), FileError> {
-    let scenario = load_scenario(path, seed)?;
-    Ok((
-        build_network(&scenario.map, path)?,
-        scenario.warnings,
-        scenario.config,
-    ))
-}
 
 /// The driver model a map runs by unless told: `realistic` for SUMO
 /// networks and scenarios (their demand was made for traffic that flows like
@@ -126,10 +81,4 @@ pub fn default_speed_limit_source(map: &std::path::Path) -> trafficmesh_model::S
     } else {
         trafficmesh_model::SpeedLimitSource::FixedSpeedLimit
     }
-}
-
-/// Loads a map file and compiles it into the simulation's lane network, with
-/// every problem of the start-up checklist named.
-pub fn load_network(path: &std::path::Path) -> Result<trafficmesh_sim::LaneNetwork, FileError> {
-    build_network(&load_map(path)?, path)
 }

@@ -4,14 +4,18 @@
 use std::time::Instant;
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use trafficmesh_maps::grid_world;
+use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_sim::World;
-use trafficmesh_sim::populate::populate;
+use trafficmesh_sim::populate::{empty_world, populate};
 
 fn world_with(vehicles: usize) -> World {
     // 40 x 40 holds about 90,000 parked vehicles; 100k needs a larger grid.
     let size = if vehicles > 50_000 { 60 } else { 40 };
-    let mut world = grid_world(size, vehicles).expect("valid grid");
+    let grid = grid_map(&GridOptions {
+        size,
+        ..GridOptions::default()
+    });
+    let mut world = empty_world(&grid, vehicles).expect("valid grid");
     assert_eq!(populate(&mut world, vehicles), vehicles, "grid too small");
     // One simulated minute first: the first seconds after placing parked cars
     // are cheaper than the steady state with queues at every junction.

@@ -9,8 +9,8 @@
 
 use std::time::Instant;
 
-use trafficmesh_maps::grid_world;
-use trafficmesh_sim::populate::populate;
+use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_sim::populate::{empty_world, populate};
 
 const VEHICLES: usize = 10_000;
 const WARMUP_TICKS: usize = 3_000;
@@ -22,7 +22,11 @@ fn main() {
         .num_threads(1)
         .build()
         .expect("a one-thread pool");
-    let mut world = grid_world(40, VEHICLES).expect("the generated grid is valid");
+    let grid = grid_map(&GridOptions {
+        size: 40,
+        ..GridOptions::default()
+    });
+    let mut world = empty_world(&grid, VEHICLES).expect("the generated grid is valid");
     populate(&mut world, VEHICLES);
     let samples: Vec<(f64, f64)> = pool.install(|| {
         for _ in 0..WARMUP_TICKS {

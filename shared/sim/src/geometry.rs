@@ -1,6 +1,7 @@
 //! Plane geometry on polylines: arc length, interpolation, projection, intersection.
 
 use glam::DVec2;
+pub use trafficmesh_model::geometry::point_in_polygon;
 
 /// One polyline vertex with everything the per-tick code reads about it, in one
 /// place so that a look-up touches one cache line rather than five arrays.
@@ -245,19 +246,6 @@ fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
         .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(v), hi.max(v))
         })
-}
-
-/// Whether `p` lies inside the simple polygon `poly` (even-odd rule).
-pub fn point_in_polygon(p: DVec2, poly: &[DVec2]) -> bool {
-    let mut inside = false;
-    let n = poly.len();
-    for i in 0..n {
-        let (a, b) = (poly[i], poly[(i + n - 1) % n]);
-        if (a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x {
-            inside = !inside;
-        }
-    }
-    inside
 }
 
 /// Whether two simple polygons (convex or not) overlap: an edge crossing or

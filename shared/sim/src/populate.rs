@@ -2,10 +2,23 @@
 //! placed bumper to bumper with a gap on every non-junction lane, round-robin,
 //! so a large run starts full instead of waiting minutes for spawns.
 
-use crate::world::World;
+use trafficmesh_model::map::{MapFile, MapProblem};
+
+use crate::network::LaneNetwork;
+use crate::world::{World, WorldConfig};
 
 const SPACING: f64 = 12.0;
 const END_MARGIN: f64 = 2.0;
+
+/// An empty world on `map` (the benchmarks' generated grid) with room for
+/// `max_vehicles` and the default config otherwise.
+pub fn empty_world(map: &MapFile, max_vehicles: usize) -> Result<World, Vec<MapProblem>> {
+    let config = WorldConfig {
+        max_vehicles,
+        ..WorldConfig::default()
+    };
+    Ok(World::new(LaneNetwork::build(map)?, config))
+}
 
 /// Places up to `count` vehicles; returns how many fit.
 pub fn populate(world: &mut World, count: usize) -> usize {

@@ -6,7 +6,7 @@ use std::time::Instant;
 use anyhow::{Result, bail};
 use clap::{Args, Subcommand};
 use serde::Serialize;
-use trafficmesh_maps::grid_world;
+use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_sim::populate::populate;
 
 use super::memory::{heap_bytes, resident_bytes};
@@ -98,7 +98,11 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
             a.warmup
         );
     }
-    let mut world = grid_world(a.size, a.vehicles)
+    let grid = grid_map(&GridOptions {
+        size: a.size,
+        ..GridOptions::default()
+    });
+    let mut world = trafficmesh_sim::populate::empty_world(&grid, a.vehicles)
         .map_err(|p| anyhow::anyhow!("generated grid is invalid: {p:?}"))?;
     // Everything allocated from here on (vehicles, per-tick buffers) counts per vehicle.
     let (rss_map, heap_map) = (resident_bytes(), heap_bytes());

@@ -127,7 +127,7 @@ pub struct VehicleSection {
     pub sudden_deceleration: Option<f64>,
     pub absolute_deceleration: Option<f64>,
     /// `fixed` or `lanelet` (each lane's limit); unset: the map's default.
-    pub speed_limit_source: Option<trafficmesh_maps::SpeedSource>,
+    pub speed_limit_source: Option<trafficmesh_service::SpeedSource>,
     pub fixed_speed_limit: Option<f64>,
 }
 

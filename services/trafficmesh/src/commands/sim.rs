@@ -69,9 +69,9 @@ pub struct SimArgs {
     #[arg(long)]
     driver_model: Option<DriverModel>,
     #[command(flatten)]
-    vehicle: trafficmesh_maps::VehicleArgs,
+    vehicle: trafficmesh_service::VehicleArgs,
     #[command(flatten)]
-    spawn_distance: trafficmesh_maps::SpawnDistanceArgs,
+    spawn_distance: trafficmesh_service::SpawnDistanceArgs,
     /// Built-in walkers and cyclists starting across each crosswalk per minute
     /// (the cluster's pedestrians service, run in this process; a fifth of
     /// them cyclists, deterministic by seed); 0 = none.
@@ -123,7 +123,7 @@ const UNTIL_DONE_LIMIT: f64 = 86_400.0;
 /// the run's length: given, the configuration's, or until the demand is done.
 fn load(a: &SimArgs) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, Option<f64>)> {
     if let Some(cfg) = &a.sumocfg {
-        let (net, warnings, config) = trafficmesh_maps::load_scenario_network(cfg, a.seed)?;
+        let (net, warnings, config) = trafficmesh_service::load_scenario_network(cfg, a.seed)?;
         let window = config.end.map(|end| end - config.begin);
         return Ok((net, warnings, a.duration.or(window)));
     }
@@ -131,7 +131,7 @@ fn load(a: &SimArgs) -> Result<(trafficmesh_sim::LaneNetwork, Vec<String>, Optio
         .map
         .as_deref()
         .expect("clap requires --map without --sumocfg");
-    let (net, warnings) = trafficmesh_maps::load_network_with_routes(map, a.routes.as_deref())?;
+    let (net, warnings) = trafficmesh_service::load_network_with_routes(map, a.routes.as_deref())?;
     Ok((net, warnings, a.duration))
 }
 

@@ -81,8 +81,8 @@ pub fn run(a: UpArgs) -> Result<()> {
     // one message naming the file, rather than five children failing at once
     // or one restarted for ever.
     let net = match (&config.sumocfg, &config.map) {
-        (Some(cfg), _) => trafficmesh_maps::load_scenario_network(cfg, config.seed)?.0,
-        (None, Some(map)) => trafficmesh_maps::load_network(map)?,
+        (Some(cfg), _) => trafficmesh_service::load_scenario_network(cfg, config.seed)?.0,
+        (None, Some(map)) => trafficmesh_service::load_network(map)?,
         (None, None) => unreachable!("ClusterConfig::load checks that one is given"),
     };
     check_spawn_config(&mut config, &net, &a.config, map_given)?;

@@ -461,8 +461,7 @@ impl World {
 }
 
 /// An empty world on a generated `size` x `size` grid, for the crate's unit
-/// tests. (They cannot call `trafficmesh_maps::grid_world`: in a test build a
-/// dev-dependency's `World` is another type than the crate's own.)
+/// tests.
 #[cfg(test)]
 pub(crate) fn test_grid_world(size: usize, config: WorldConfig) -> World {
     use trafficmesh_maps::{GridOptions, grid_map};

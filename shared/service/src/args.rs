@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::LaneNetwork;
 
-use crate::FileError;
+use trafficmesh_maps::FileError;
 
 #[derive(clap::Args, Clone, Debug)]
 pub struct MapArgs {
@@ -99,7 +99,7 @@ impl VehicleArgs {
             speed_limit_source: match self.speed_limit_source {
                 Some(SpeedSource::Fixed) => SpeedLimitSource::FixedSpeedLimit,
                 Some(SpeedSource::Lanelet) => SpeedLimitSource::LaneletSpeedLimit,
-                None => crate::default_speed_limit_source(map),
+                None => trafficmesh_maps::default_speed_limit_source(map),
             },
             fixed_speed_limit: self.fixed_speed_limit,
             ..base

@@ -1,0 +1,59 @@
+//! What every trafficmesh binary shares at its edge: the map and vehicle
+//! flags (one flag set, one help text) and the loading of a map file, any
+//! format, into the simulation's lane network.
+
+pub mod args;
+
+pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
+
+use trafficmesh_maps::FileError;
+use trafficmesh_sim::LaneNetwork;
+
+/// Loads a map (any format), with a SUMO route file's demand in place of the
+/// map's own simulators when one is given, and compiles it; the route
+/// import's warnings come back with it.
+pub fn load_network_with_routes(
+    map: &std::path::Path,
+    routes: Option<&std::path::Path>,
+) -> Result<(LaneNetwork, Vec<String>), FileError> {
+    let Some(routes) = routes else {
+        return Ok((load_network(map)?, Vec::new()));
+    };
+    let mut file = trafficmesh_maps::load_map(map)?;
+    let demand = trafficmesh_maps::load_routes(routes, &file)?;
+    file.traffic_simulators = vec![demand.simulator];
+    file.vehicle_kinds.extend(demand.kinds);
+    Ok((build_network(&file, routes)?, demand.warnings))
+}
+
+/// Compiles a map read from `path` into the simulation's lane network, with
+/// every problem of the start-up checklist named against that file.
+pub fn build_network(
+    map: &trafficmesh_model::MapFile,
+    path: &std::path::Path,
+) -> Result<LaneNetwork, FileError> {
+    LaneNetwork::build(map).map_err(|problems| FileError::Invalid {
+        path: path.to_owned(),
+        problems,
+    })
+}
+
+/// A SUMO scenario's network with its demand (vTypes drawn with `seed`),
+/// the import's warnings, and the configuration.
+pub fn load_scenario_network(
+    path: &std::path::Path,
+    seed: u64,
+) -> Result<(LaneNetwork, Vec<String>, trafficmesh_maps::SumoConfig), FileError> {
+    let scenario = trafficmesh_maps::load_scenario(path, seed)?;
+    Ok((
+        build_network(&scenario.map, path)?,
+        scenario.warnings,
+        scenario.config,
+    ))
+}
+
+/// Loads a map file and compiles it into the simulation's lane network, with
+/// every problem of the start-up checklist named.
+pub fn load_network(path: &std::path::Path) -> Result<LaneNetwork, FileError> {
+    build_network(&trafficmesh_maps::load_map(path)?, path)
+}
