@@ -667,8 +667,8 @@ fn sim_takes_the_npc_vehicle_config_and_reports_it() {
 }
 
 /// `sim --pedestrians` runs the built-in walkers and cyclists in the headless
-/// run: they occupy the zebra crossings, vehicles stop for them with the
-/// seed's log lines, and the run stays deterministic by seed.
+/// run: they occupy the zebra crossings, vehicles stop for them with the AWSIM
+/// reference's log lines, and the run stays deterministic by seed.
 #[test]
 fn sim_runs_pedestrians_that_stop_vehicles_at_zebras() {
     let map = repo_file("configs/maps/four_way.map.json");

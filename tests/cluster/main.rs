@@ -171,7 +171,7 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
                     Duration::from_secs(5)
                 )
                 .await,
-            "the seed's stop line is missing from the log"
+            "the AWSIM reference's stop line is missing from the log"
         );
         assert!(
             cluster

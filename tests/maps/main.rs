@@ -200,7 +200,7 @@ fn pedestrians_on_imported_crossings_stop_traffic_until_they_leave() {
 
 /// Runs the world for `seconds`; every vehicle that comes onto a signalised
 /// lane must do so on green or yellow, or in the first second of red (one that
-/// committed on yellow, as the seed's yellow rule says, may reach the line just
+/// committed on yellow, as the AWSIM reference's yellow rule says, may reach the line just
 /// after the change). Returns how many vehicles entered each signalised lane.
 fn entries_past_signals(
     world: &mut World,

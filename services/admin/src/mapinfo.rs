@@ -27,7 +27,7 @@ pub struct MapGeometry {
     pub crosswalks: Vec<CrosswalkShape>,
     /// Light groups by name, each with the stop-line centres of its lanes.
     pub lights: BTreeMap<String, Vec<[f64; 2]>>,
-    /// Starts of the lanes the map's simulators spawn on (the seed's showSpawnPoints).
+    /// Starts of the lanes the map's simulators spawn on (the AWSIM reference's showSpawnPoints).
     pub spawn_points: Vec<SpawnPoint>,
     /// The catalogue by vehicle `kind` code.
     pub kinds: Vec<KindShape>,

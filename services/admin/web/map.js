@@ -165,7 +165,7 @@ function draw() {
   worldTransform(ctx);
   const px = 1 / view.scale;
 
-  // Crosswalks: green when clear, red when occupied (the seed's gizmo colours).
+  // Crosswalks: green when clear, red when occupied (the AWSIM reference's gizmo colours).
   for (const cw of map.crosswalks) {
     const occupied = states.crosswalks[cw.name] === true;
     ctx.beginPath();

@@ -44,7 +44,7 @@ struct Args {
     max_vehicles: Option<usize>,
     #[command(flatten)]
     spawn_distance: trafficmesh_service::SpawnDistanceArgs,
-    /// Spawn config (the seed's traffic_spawn.json): loaded at start if it
+    /// Spawn config (the AWSIM reference's traffic_spawn.json): loaded at start if it
     /// exists, and the file that save and load use.
     #[arg(long, default_value = "traffic_spawn.json")]
     spawn_config: PathBuf,

@@ -74,7 +74,7 @@ impl Outputs {
 pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
     let net = world.network();
     let lane = |id: u32| net.lane(id).name.clone();
-    // The seed's vehicle names in its log lines: `<prefab>(Clone)_<id>`.
+    // The AWSIM reference's vehicle names in its log lines: `<prefab>(Clone)_<id>`.
     let vehicle = |id: u64| match world.vehicle(id) {
         Some(v) => format!("{}(Clone)_{id}", net.kinds[v.kind].name),
         None => format!("vehicle_{id}"),

@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// The speed modes of the seed's Decision step, most to least restrictive last.
+/// The speed modes of the AWSIM reference's Decision step, most to least restrictive last.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
 #[serde(rename_all = "SCREAMING_SNAKE_CASE")]
 pub enum SpeedMode {

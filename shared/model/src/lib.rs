@@ -1,5 +1,5 @@
 //! Data types every trafficmesh process shares: the native map file format, the
-//! NPC vehicle config, the spawn config (the seed's `traffic_spawn.json`), the
+//! NPC vehicle config, the spawn config (the AWSIM reference's `traffic_spawn.json`), the
 //! vehicle catalogue and the enums of the NPC pipeline.
 //!
 //! This crate holds plain data and its validation. It does no I/O beyond

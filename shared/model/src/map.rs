@@ -1,8 +1,8 @@
 //! The native map file (`*.map.json`): lanes, light groups, crosswalk areas,
 //! zebra-crossing whitelists and the traffic simulators of the scene.
 //!
-//! docs/maps.md documents this format field by field. [`MapFile::validate`] runs the
-//! seed's start-up checklist and reports every problem with the element's name.
+//! docs/maps.md documents this format field by field. [`MapFile::validate`] runs the AWSIM
+//! reference's start-up checklist and reports every problem with the element's name.
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
@@ -136,7 +136,7 @@ pub enum CrosswalkArea {
 
 /// Where vehicles stop for an occupied crosswalk. `heading_deg`, when given, is the
 /// direction of the traffic this stop point is for: vehicles heading more than 90°
-/// away from it ignore it (the seed's cone test alone also catches vehicles leaving
+/// away from it ignore it (the AWSIM reference's cone test alone also catches vehicles leaving
 /// the crossing on the other side of the road).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -164,7 +164,7 @@ fn default_buffer() -> f64 {
 pub struct CrosswalkDef {
     pub name: String,
     pub area: CrosswalkArea,
-    /// Defaults to the area's centre when empty (the seed: "defaults to the area's own position").
+    /// Defaults to the area's centre when empty (the AWSIM reference: "defaults to the area's own position").
     pub stop_points: Vec<StopPointDef>,
     pub max_detection_distance: f64,
     /// Half-angle of the detection cone, degrees.
@@ -423,7 +423,7 @@ impl MapFile {
             p.add(
                 "map",
                 "lanes",
-                "the map has no lanes (the seed's TrafficLanes is empty)",
+                "the map has no lanes (the AWSIM reference's TrafficLanes is empty)",
             );
         }
         let names = self.validate_lane_names(&mut p);

@@ -1,4 +1,4 @@
-//! TrafficSpawnConfig: the seed's `traffic_spawn.json`, field for field.
+//! TrafficSpawnConfig: the AWSIM reference's `traffic_spawn.json`, field for field.
 //!
 //! Lane names are case-insensitive, `spawnsPerMinute` 0 disables the limit, and
 //! branch weights only matter as ratios.
@@ -45,7 +45,7 @@ pub struct SpawnConfigError {
 
 impl TrafficSpawnConfig {
     /// Checks values and, through `lane_exists`, lane names. Nothing is dropped
-    /// silently except zero weights, which the seed defines as "never".
+    /// silently except zero weights, which the AWSIM reference defines as "never".
     pub fn validate(&self, lane_exists: impl Fn(&str) -> bool) -> Result<(), SpawnConfigError> {
         let mut problems = Vec::new();
         for (i, rate) in self.spawn_rates.iter().enumerate() {

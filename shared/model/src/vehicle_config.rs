@@ -12,7 +12,7 @@ pub enum SpeedLimitSource {
     FixedSpeedLimit,
 }
 
-/// The seed's NPCVehicleConfig, with its defaults.
+/// The AWSIM reference's NPCVehicleConfig, with its defaults.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, rename_all = "camelCase")]
 pub struct NpcVehicleConfig {

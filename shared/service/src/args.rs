@@ -80,7 +80,7 @@ pub struct VehicleArgs {
     pub fixed_speed_limit: f64,
 }
 
-/// The seed's SpeedLimitSource, as the flags and cluster.toml name it.
+/// The AWSIM reference's SpeedLimitSource, as the flags and cluster.toml name it.
 #[derive(Clone, Copy, Debug, clap::ValueEnum, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SpeedSource {

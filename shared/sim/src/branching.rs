@@ -10,7 +10,7 @@ use trafficmesh_model::TrafficSpawnConfig;
 use crate::network::{LaneId, LaneNetwork};
 use crate::rng::SimRng;
 
-/// How a branch was chosen: the seed's four `selection_mode` values.
+/// How a branch was chosen: the AWSIM reference's four `selection_mode` values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum SelectionMode {
     Weighted,

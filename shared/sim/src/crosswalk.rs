@@ -6,7 +6,7 @@ use glam::DVec2;
 
 use crate::network::Crosswalk;
 
-/// Component types the seed's areas detect, by the names the seed uses.
+/// Component types the AWSIM reference's areas detect, by the names the AWSIM reference uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum OccupantType {
     NpcPedestrian,
@@ -19,7 +19,7 @@ pub enum OccupantType {
 }
 
 impl OccupantType {
-    /// Parses the seed's type names (case-insensitive); unknown names are `Other`.
+    /// Parses the AWSIM reference's type names (case-insensitive); unknown names are `Other`.
     pub fn parse(name: &str) -> Self {
         match name.to_ascii_lowercase().as_str() {
             "npcpedestrian" => Self::NpcPedestrian,

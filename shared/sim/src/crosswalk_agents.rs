@@ -1,6 +1,6 @@
 //! Crosswalk occupancy from agent footprints (pedestrians, cyclists) as other
-//! processes publish them: which areas each agent overlaps, turned into the
-//! seed's enter/exit events per root. A root stays an occupant while any of
+//! processes publish them: which areas each agent overlaps, turned into the AWSIM
+//! reference's enter/exit events per root. A root stays an occupant while any of
 //! its agents (colliders) is in the area, so a character counts once.
 //!
 //! Cost per batch grows with the agents in it, not with the map: candidate

@@ -14,7 +14,7 @@ const STOP_X: f64 = 145.0;
 const BUFFER: f64 = 1.5;
 
 /// An eastbound road along y = 0 with a crossing at x = 150 (stop point at 145, no
-/// heading so that only the seed's cone test applies), and a northbound road at x = 135.
+/// heading so that only the AWSIM reference's cone test applies), and a northbound road at x = 135.
 fn road_with_crossing() -> MapFile {
     let mut east = lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]);
     east["speed_limit"] = json!(13.89);

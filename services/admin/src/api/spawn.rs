@@ -14,7 +14,7 @@ use crate::problem::{ApiJson, Problem};
 
 /// The spawn config in force.
 #[utoipa::path(get, path = "/api/v1/spawn-config", tag = "spawn config",
-    responses((status = 200, body = serde_json::Value, description = "the seed's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 503, body = Problem)))]
+    responses((status = 200, body = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 503, body = Problem)))]
 pub async fn get_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig>, Problem> {
     let key = app.bus.keys().spawn_config();
     Ok(Json(
@@ -26,8 +26,8 @@ pub async fn get_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig>
 /// weights, and empty `next` lists are refused with 422 listing every problem;
 /// nothing is applied then.
 #[utoipa::path(put, path = "/api/v1/spawn-config", tag = "spawn config", security(("bearer" = [])),
-    request_body(content = serde_json::Value, description = "the seed's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"),
-    responses((status = 200, body = serde_json::Value, description = "the seed's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 422, body = Problem), (status = 401, body = Problem)))]
+    request_body(content = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"),
+    responses((status = 200, body = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 422, body = Problem), (status = 401, body = Problem)))]
 pub async fn put_config(
     State(app): AppState,
     ApiJson(config): ApiJson<TrafficSpawnConfig>,
@@ -57,7 +57,7 @@ pub async fn save_config(State(app): AppState) -> Result<Json<Saved>, Problem> {
 
 /// Load Spawn Config JSON: reads the spawner's file and applies it.
 #[utoipa::path(post, path = "/api/v1/spawn-config/load", tag = "spawn config", security(("bearer" = [])),
-    responses((status = 200, body = serde_json::Value, description = "the seed's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 422, body = Problem)))]
+    responses((status = 200, body = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 422, body = Problem)))]
 pub async fn load_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig>, Problem> {
     let key = app.bus.keys().spawner("config/load");
     Ok(Json(

@@ -38,7 +38,7 @@ pub struct SimArgs {
     /// Random seed: same map, config and seed give the same trajectories.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Spawn rates and branch weights (the seed's traffic_spawn.json format).
+    /// Spawn rates and branch weights (the AWSIM reference's traffic_spawn.json format).
     #[arg(long)]
     spawn_config: Option<PathBuf>,
     /// Maximum simultaneous NPC vehicles (the AWSIM reference's

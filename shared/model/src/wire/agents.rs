@@ -17,7 +17,7 @@ pub struct Agent {
     pub id: String,
     /// The character's root object name (counted once however many colliders).
     pub root: String,
-    /// One of the seed's detected component types (NPCPedestrian,
+    /// One of the AWSIM reference's detected component types (NPCPedestrian,
     /// SimpleCyclistMovement, BicycleMoveRotate, ClearWaypointFollower,
     /// WaypointFollower); anything else is not counted.
     #[serde(rename = "type")]

@@ -1,4 +1,4 @@
-//! Deadlock breaking (the seed's FORCING_PRIORITY, "override to break a
+//! Deadlock breaking (the AWSIM reference's FORCING_PRIORITY, "override to break a
 //! deadlock"). When stopped vehicles wait on each other in a cycle (each one
 //! for its `dominating` vehicle while it yields, else for the body in front of
 //! it), the lowest id in the cycle among those held by a rule is let through

@@ -2,7 +2,7 @@
 //! (section 3.6), evaluated on the previous tick's snapshot.
 //!
 //! Deliberate choices (docs/behaviour.md): traffic drives on the right, so
-//! the "left-hand rule" phases yield to traffic on the right (the seed: "yielding
+//! the "left-hand rule" phases yield to traffic on the right (the AWSIM reference: "yielding
 //! to right-hand traffic"); the approach window is 18 m or 4 s of travel,
 //! whichever is longer; a vehicle with no stop line yields at the junction
 //! entrance rather than at its lane's first waypoint; headings are compared wrapped;

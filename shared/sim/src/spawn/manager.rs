@@ -1,6 +1,6 @@
 //! The TrafficManager's spawn decision flow, apart from the vehicles: collects
-//! proposals from every simulator, groups them by spawn point and applies the
-//! seed's filters (ego distance, per-lane rate, priority). What is left becomes
+//! proposals from every simulator, groups them by spawn point and applies the AWSIM
+//! reference's filters (ego distance, per-lane rate, priority). What is left becomes
 //! [`SpawnRequest`]s; whoever owns the vehicles (the world in one process, the
 //! stepper in the cluster) makes the final IsSpawnable and max-count check and
 //! reports the [`SpawnOutcome`] back through [`SpawnManager::resolve`].
@@ -56,7 +56,7 @@ pub struct SpawnManager {
     /// Simulators of the map, then those added at run time.
     simulators: Vec<Box<dyn TrafficSimulator>>,
     map_simulators: usize,
-    /// The seed's anti-starvation counter: losers gain one, the winner resets.
+    /// The AWSIM reference's anti-starvation counter: losers gain one, the winner resets.
     priorities: Vec<i64>,
     /// spawnsPerMinute per lane (0 = no limit) and the last accepted spawn time.
     spawn_rates: Vec<f64>,

@@ -1,4 +1,4 @@
-//! Traffic simulators (the seed's ITrafficSimulator) and what they propose.
+//! Traffic simulators (the AWSIM reference's ITrafficSimulator) and what they propose.
 //!
 //! The world's spawn phase collects proposals from every enabled simulator, groups
 //! them by spawn point and decides which spawn (ego distance, per-lane rate,
@@ -54,7 +54,7 @@ pub trait TrafficSimulator: Send {
     fn propose(&mut self, net: &LaneNetwork, time: f64, out: &mut Vec<SpawnProposal>);
     /// The proposal with this slot spawned.
     fn spawned(&mut self, slot: usize);
-    /// A fixed priority added to the seed's anti-starvation counter when
+    /// A fixed priority added to the AWSIM reference's anti-starvation counter when
     /// proposals compete for one spawn point (0 for the built-in simulators).
     fn priority(&self) -> i64 {
         0

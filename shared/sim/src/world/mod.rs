@@ -46,7 +46,7 @@ pub fn default_max_vehicles(timetable: bool) -> usize {
     if timetable { 1_000_000 } else { 40 }
 }
 
-/// Run parameters, with the seed's defaults.
+/// Run parameters, with the AWSIM reference's defaults.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldConfig {
     pub seed: u64,

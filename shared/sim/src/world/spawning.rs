@@ -1,4 +1,4 @@
-//! The spawn phase: proposals grouped by spawn point, then the seed's decision
+//! The spawn phase: proposals grouped by spawn point, then the AWSIM reference's decision
 //! flow (ego distance, per-lane rate, priority, IsSpawnable, max count).
 
 use glam::DVec2;

@@ -41,7 +41,7 @@ pub(super) fn push_despawns(events: &mut Vec<SimEvent>, mut trips: Vec<TripRecor
     events.extend(trips.into_iter().map(SimEvent::Despawned));
 }
 
-/// The name the seed's log lines use: `<prefab>(Clone)_<id>`.
+/// The name the AWSIM reference's log lines use: `<prefab>(Clone)_<id>`.
 pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
 }
@@ -204,7 +204,7 @@ impl World {
     }
 
     /// The WasZebraBlocked transitions (before the new perceptions are applied, so
-    /// the area that cleared is still known), with the seed's log lines.
+    /// the area that cleared is still known), with the AWSIM reference's log lines.
     fn zebra_events(&mut self, perceptions: &[Perception]) {
         // A stop needs an occupied area now; a clear needs a vehicle blocked last tick.
         if self.occupancy.occupied_areas().is_empty() && !self.zebra_blocked_last_tick {
