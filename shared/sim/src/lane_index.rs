@@ -5,8 +5,8 @@ use rayon::prelude::*;
 
 use crate::buckets::Buckets;
 use crate::network::{LaneId, LaneNetwork};
+use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
 use crate::vehicle::Vehicle;
-use crate::world::{MIN_VEHICLES_PER_TASK, join_if};
 
 /// One vehicle's body on one lane.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -10,29 +10,31 @@
 //! immutable snapshot in parallel, randomness comes from per-entity seeded streams.
 
 pub mod branching;
-pub mod buckets;
-pub mod cognition;
-pub mod conflicts;
+mod buckets;
+mod cognition;
+mod conflicts;
 pub mod control;
 pub mod crosswalk;
 pub mod crosswalk_agents;
 pub mod decision;
-pub mod ego;
-pub mod events;
+mod ego;
+mod events;
 pub mod geometry;
-pub mod idm;
+mod idm;
 pub mod lane_change;
-pub mod lane_index;
+mod lane_index;
 pub mod lights;
+mod lookahead;
 pub mod network;
+mod parallel;
 pub mod pedestrians;
 pub mod populate;
-pub mod prefetch;
-pub mod rng;
+mod prefetch;
+mod rng;
 pub mod spawn;
-pub mod trajectory;
-pub mod vehicle;
-pub mod visualization;
+mod trajectory;
+mod vehicle;
+mod visualization;
 pub mod world;
 
 pub use ego::Ego;

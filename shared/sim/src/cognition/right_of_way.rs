@@ -16,8 +16,8 @@ use super::Snapshot;
 use crate::buckets::Buckets;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
+use crate::parallel::MIN_VEHICLES_PER_TASK;
 use crate::vehicle::{Vehicle, VehicleId};
-use crate::world::MIN_VEHICLES_PER_TASK;
 
 const MIN_DISTANCE_TO_INTERSECTION: f64 = 18.0;
 const APPROACH_TIME: f64 = 4.0;

@@ -41,22 +41,6 @@ pub fn with_workers_awake<R: Send>(work: impl FnOnce() -> R + Send) -> R {
     })
 }
 
-/// `rayon::join(a, b)` when `parallel`, else `a` then `b` on this thread. A
-/// world too small for its phases to run on the pool leaves the other
-/// workers asleep (see [`super::World::step`]), and a join would wake one
-/// only to hand it a moment's work.
-pub(crate) fn join_if<RA: Send, RB: Send>(
-    parallel: bool,
-    a: impl FnOnce() -> RA + Send,
-    b: impl FnOnce() -> RB + Send,
-) -> (RA, RB) {
-    if parallel {
-        rayon::join(a, b)
-    } else {
-        (a(), b())
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,10 +15,10 @@ use crate::cognition::right_of_way::{JunctionBuckets, Member, RowInfo};
 use crate::events::{DespawnReason, SimEvent};
 use crate::lane_change;
 use crate::lane_index::ChunkFiller;
+use crate::lookahead;
 use crate::network::LaneNetwork;
-use crate::prefetch;
+use crate::parallel::MIN_VEHICLES_PER_TASK;
 use crate::vehicle::{Vehicle, VehicleId};
-use crate::world::MIN_VEHICLES_PER_TASK;
 
 impl World {
     /// Lane advance and branch choices: parallel (each vehicle draws from its own
@@ -62,8 +62,8 @@ impl World {
                         // In chunks, so that the loop can look at the vehicles ahead of it.
                         let mut followed = Followed::default();
                         for (k, row) in rows.iter_mut().enumerate() {
-                            prefetch::paths_ahead(follow.net, vehicles, k);
-                            prefetch::conflicts_ahead(follow.net, vehicles, k);
+                            lookahead::paths_ahead(follow.net, vehicles, k);
+                            lookahead::conflicts_ahead(follow.net, vehicles, k);
                             let i = c * MIN_VEHICLES_PER_TASK + k;
                             let lists = (row, &mut *junction_list, &mut index_items);
                             follow.vehicle(&mut vehicles[k], i, lists, &mut followed);

@@ -30,11 +30,10 @@ use crate::spawn::{SpawnManager, SpawnStats, TrafficSimulator};
 use crate::trajectory::TrajectoryHash;
 use crate::vehicle::{Vehicle, VehicleId};
 
-pub(crate) use awake::join_if;
+pub use crate::parallel::MIN_VEHICLES_PER_TASK;
 pub use jams::{STUCK_AFTER, WaitStats};
 pub use phases::{Phase, PhaseTimes};
 pub use spawning::{QueuedSpawn, SpawnRejection};
-pub use step::MIN_VEHICLES_PER_TASK;
 
 /// SUMO's default `time-to-teleport`, seconds.
 pub const DEFAULT_JAM_TIMEOUT: f64 = 300.0;

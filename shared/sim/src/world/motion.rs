@@ -11,8 +11,8 @@ use crate::cognition::Perception;
 use crate::cognition::right_of_way::RowInfo;
 use crate::control::{speed_limit, step_speed, update_pose};
 use crate::decision::decide;
+use crate::lookahead;
 use crate::network::LaneNetwork;
-use crate::prefetch;
 use crate::trajectory::pose_digest;
 use crate::vehicle::Vehicle;
 use crate::visualization::update_trip;
@@ -73,8 +73,8 @@ impl World {
                     let mut followed = Followed::default();
                     let mut stayed = 0;
                     for (k, p) in perceptions.iter().enumerate() {
-                        prefetch::paths_ahead(net, vehicles, k);
-                        prefetch::vertices_and_conflicts_ahead(net, vehicles, k);
+                        lookahead::paths_ahead(net, vehicles, k);
+                        lookahead::vertices_and_conflicts_ahead(net, vehicles, k);
                         let v = &mut vehicles[k];
                         move_vehicle(net, config, dt, v, p);
                         if v.should_despawn {

@@ -7,7 +7,7 @@
 //! the same with or without it.
 
 use super::World;
-use crate::world::MIN_VEHICLES_PER_TASK;
+use crate::parallel::MIN_VEHICLES_PER_TASK;
 use rayon::prelude::*;
 
 /// Ticks between regroupings: a vehicle changes lanes every few seconds, so

@@ -5,14 +5,15 @@
 use rayon::prelude::*;
 
 use super::World;
-use super::awake::{join_if, with_workers_awake};
+use super::awake::with_workers_awake;
 use super::phases::Phase;
 use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
+use crate::lookahead;
 use crate::network::{LaneId, LaneNetwork};
-use crate::prefetch;
+use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
 use crate::vehicle::Vehicle;
 
 pub(super) fn trip_record(
@@ -45,11 +46,6 @@ pub(super) fn push_despawns(events: &mut Vec<SimEvent>, mut trips: Vec<TripRecor
 pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
 }
-
-/// Vehicles below which a parallel phase runs on one thread: waking the other
-/// threads for a few hundred vehicles costs more than it saves (a 1,000-vehicle
-/// SUMO grid ran faster on one thread than on two).
-pub const MIN_VEHICLES_PER_TASK: usize = 1024;
 
 impl World {
     /// Advances the world by one tick of `config.dt` seconds.
@@ -195,7 +191,7 @@ impl World {
                 .enumerate()
                 .with_min_len(MIN_VEHICLES_PER_TASK)
                 .map(|(i, wait)| {
-                    prefetch::cognition_ahead(&snap, i);
+                    lookahead::cognition_ahead(snap.net, snap.vehicles, snap.index, i);
                     let p = perceive(&snap, i);
                     *wait = deadlock::wait_of(&snap, i, &p);
                     p
