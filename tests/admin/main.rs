@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 use http::{Api, Auth};
 use serde_json::{Value, json};
 use support::*;
-use trafficmesh_model::wire::{Agent, AgentBatch, Event, EventBatch};
+use trafficmesh_protocol::wire::{Agent, AgentBatch, Event, EventBatch};
 
 fn api(cluster: &Cluster) -> Api {
     Api::new(cluster.admin.as_ref().unwrap())

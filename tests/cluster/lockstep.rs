@@ -5,7 +5,7 @@
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
-use trafficmesh_model::wire::{LockstepTick, TickReport};
+use trafficmesh_protocol::wire::{LockstepTick, TickReport};
 
 use crate::support::*;
 

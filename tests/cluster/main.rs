@@ -12,7 +12,7 @@ use std::time::{Duration, Instant};
 
 use support::*;
 use trafficmesh_model::LightColor;
-use trafficmesh_model::wire::{
+use trafficmesh_protocol::wire::{
     Agent, AgentBatch, CrosswalkOccupancy, EgoPose, Event, EventBatch, LightOverride, LightState,
     RemoveAnswer, RemoveTarget, VehicleBatch,
 };

@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use trafficmesh_bus::{Bus, BusArgs, Role};
-use trafficmesh_model::wire::{ServiceStatus, VehicleBatch};
+use trafficmesh_protocol::wire::{ServiceStatus, VehicleBatch};
 
 pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")

@@ -8,7 +8,7 @@ use axum::middleware::Next;
 use axum::response::Response;
 use metrics::{counter, gauge, histogram};
 use metrics_exporter_prometheus::{Matcher, PrometheusBuilder, PrometheusHandle};
-use trafficmesh_model::wire::{Clock, Event, ServiceStatus};
+use trafficmesh_protocol::wire::{Clock, Event, ServiceStatus};
 
 /// Tick durations around the 20 ms real-time budget at 50 Hz.
 const TICK_BUCKETS: &[f64] = &[

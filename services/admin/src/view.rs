@@ -9,7 +9,9 @@ use std::time::Instant;
 
 use anyhow::Result;
 use trafficmesh_bus::Bus;
-use trafficmesh_model::wire::{Clock, CrosswalkOccupancy, EventBatch, LightState, ServiceStatus};
+use trafficmesh_protocol::wire::{
+    Clock, CrosswalkOccupancy, EventBatch, LightState, ServiceStatus,
+};
 use zenoh::bytes::ZBytes;
 use zenoh::sample::SampleKind;
 
@@ -135,7 +137,7 @@ impl ClusterView {
         tokio::spawn(async move {
             while let Ok(sample) = alive.recv_async().await {
                 let service =
-                    trafficmesh_bus::Keys::last_chunk(sample.key_expr().as_str()).to_string();
+                    trafficmesh_protocol::Keys::last_chunk(sample.key_expr().as_str()).to_string();
                 let mut v = view.write();
                 match sample.kind() {
                     SampleKind::Put => v.alive.insert(service),

@@ -11,8 +11,9 @@ use std::time::{Duration, Instant};
 use anyhow::{Result, bail};
 use clap::Parser;
 use glam::DVec2;
-use trafficmesh_bus::{Bus, BusArgs, Keys, Lane, Role, Vouch, runtime};
-use trafficmesh_model::wire::{
+use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
+use trafficmesh_protocol::Keys;
+use trafficmesh_protocol::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, TickReport,
 };
 use trafficmesh_service::MapArgs;
@@ -329,7 +330,7 @@ async fn answer_queries(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) 
             }
             Ok(query) = blocked.recv_async() => {
                 let Some(q) = bus.query_payload::<BlockedStopQuery>(&query).await else { continue };
-                if let Some(bad) = trafficmesh_model::wire::first_non_finite(&[("x", q.x), ("y", q.y), ("yaw", q.yaw)]) {
+                if let Some(bad) = trafficmesh_protocol::wire::first_non_finite(&[("x", q.x), ("y", q.y), ("yaw", q.yaw)]) {
                     let reason = format!("{bad} is not a finite number");
                     bus.reject(query.key_expr().as_str(), &reason);
                     bus.reply_error(&query, &reason).await;

@@ -8,8 +8,8 @@ use std::sync::{Arc, Mutex};
 use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
-use trafficmesh_model::wire::{Clock, LightOverride, LightState, TickReport};
 use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_protocol::wire::{Clock, LightOverride, LightState, TickReport};
 use trafficmesh_service::MapArgs;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
@@ -249,16 +249,8 @@ fn apply_override(g: &mut Groups, o: &LightOverride, validity: f64) -> Result<Li
 }
 
 fn check_program(p: &LightProgram) -> Result<(), String> {
-    for (name, v) in [("green", p.green), ("yellow", p.yellow), ("red", p.red)] {
-        if !(v.is_finite() && v >= 0.0) {
-            return Err(format!("program.{name} must be a number >= 0, got {v}"));
-        }
+    match p.problems().first() {
+        Some((field, problem)) => Err(format!("{field}: {problem}")),
+        None => Ok(()),
     }
-    if !p.offset.is_finite() {
-        return Err("program.offset must be a finite number".into());
-    }
-    if p.cycle() <= 0.0 {
-        return Err("program cycle (green + yellow + red) must be positive".into());
-    }
-    Ok(())
 }

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
-use trafficmesh_model::wire::{Agent, AgentBatch, Clock};
+use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock};
 use trafficmesh_service::MapArgs;
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 

@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use trafficmesh_bus::BusError;
 use trafficmesh_model::TrafficSpawnConfig;
-use trafficmesh_model::wire::{RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest};
+use trafficmesh_protocol::wire::{RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest};
 use zenoh::bytes::Encoding;
 use zenoh::query::Query;
 

@@ -6,7 +6,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use trafficmesh_model::wire::{Clock, ProposalResult, SpawnAnswer, TickReport};
+use trafficmesh_protocol::wire::{Clock, ProposalResult, SpawnAnswer, TickReport};
 use trafficmesh_sim::spawn::SpawnRequest;
 
 use crate::Spawner;

@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use trafficmesh_model::TrafficSpawnConfig;
-use trafficmesh_model::wire::{ProposalBatch, SpawnBatch, SpawnOrder, SpawnVerdict};
+use trafficmesh_protocol::wire::{ProposalBatch, SpawnBatch, SpawnOrder, SpawnVerdict};
 use trafficmesh_sim::branching::{BranchChoice, BranchStats, SelectionMode};
 use trafficmesh_sim::spawn::{
     PendingProposal, SharedExternal, SpawnManager, SpawnOutcome, SpawnRequest,

@@ -2,9 +2,9 @@
 
 use std::sync::Arc;
 
-use trafficmesh_bus::{BusError, Keys};
-use trafficmesh_model::wire::{EgoPose, Event, EventBatch, ProposalBatch};
-use trafficmesh_sim::Ego;
+use trafficmesh_bus::BusError;
+use trafficmesh_protocol::Keys;
+use trafficmesh_protocol::wire::{EgoPose, Event, EventBatch, ProposalBatch};
 
 use crate::Spawner;
 
@@ -23,7 +23,7 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
                 s.bus.reject(sample.key_expr().as_str(), &problem);
                 continue;
             }
-            s.state().ego = Some(Ego::from(&pose));
+            s.state().ego = Some(trafficmesh_service::ego_of(&pose));
         }
     });
 

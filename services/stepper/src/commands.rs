@@ -5,12 +5,12 @@ use std::sync::mpsc::Sender;
 
 use tokio::sync::oneshot;
 use trafficmesh_model::TrafficSpawnConfig;
-use trafficmesh_model::wire::{
+use trafficmesh_protocol::wire::{
     CrosswalkOccupancy, EgoPose, Heartbeat, LightState, RemoveAnswer, RemoveTarget, RestartAnswer,
     RestartRequest, SpawnAnswer, SpawnBatch, SpawnOrder, SpawnVerdict,
 };
+use trafficmesh_sim::World;
 use trafficmesh_sim::world::{QueuedSpawn, SpawnRejection};
-use trafficmesh_sim::{Ego, World};
 
 pub enum Command {
     /// A query; the answer (JSON) or the reason it was refused goes back.
@@ -160,7 +160,7 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
             if let Some(problem) = pose.problem() {
                 return Err(problem);
             }
-            world.set_ego(Some(Ego::from(&pose)));
+            world.set_ego(Some(trafficmesh_service::ego_of(&pose)));
         }
         // A member in step sends its states with its lockstep answers.
         Command::Light(_) | Command::LightsHeartbeat(_) if inputs.in_step.lights => {}

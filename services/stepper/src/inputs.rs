@@ -9,7 +9,7 @@ use serde::de::DeserializeOwned;
 use tokio::sync::oneshot;
 use trafficmesh_bus::{Bus, BusError};
 use trafficmesh_model::TrafficSpawnConfig;
-use trafficmesh_model::wire::{CrosswalkOccupancy, LightState};
+use trafficmesh_protocol::wire::{CrosswalkOccupancy, LightState};
 
 use crate::commands::{Command, Input, InputSender, Request};
 

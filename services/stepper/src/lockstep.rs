@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use trafficmesh_bus::Bus;
-use trafficmesh_model::wire::{LockstepTick, SpawnVerdict, TickReport};
+use trafficmesh_protocol::wire::{LockstepTick, SpawnVerdict, TickReport};
 use trafficmesh_sim::World;
 
 use crate::commands::InputState;

@@ -8,8 +8,8 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use tokio::sync::mpsc;
 use trafficmesh_bus::{Bus, BusError, Lane};
 use trafficmesh_model::catalog::builtin_names;
-use trafficmesh_model::wire::vehicle_codec;
-use trafficmesh_model::wire::{Clock, Event, EventBatch, VehicleBatch, VehicleState};
+use trafficmesh_protocol::wire::vehicle_codec;
+use trafficmesh_protocol::wire::{Clock, Event, EventBatch, VehicleBatch, VehicleState};
 use trafficmesh_sim::{SimEvent, World};
 
 pub struct TickOutput {

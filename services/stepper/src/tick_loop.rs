@@ -6,7 +6,7 @@ use std::sync::atomic::Ordering;
 use std::sync::mpsc::{Receiver, TryRecvError};
 use std::time::{Duration, Instant};
 
-use trafficmesh_model::wire::{Clock, Event};
+use trafficmesh_protocol::wire::{Clock, Event};
 use trafficmesh_sim::World;
 
 use trafficmesh_bus::Bus;

@@ -13,7 +13,8 @@ use zenoh::qos::CongestionControl;
 use zenoh::query::Query;
 use zenoh::sample::Sample;
 
-use crate::{BadPayloads, BusArgs, BusError, Keys, Role};
+use crate::{BadPayloads, BusArgs, BusError, Role};
+use trafficmesh_protocol::Keys;
 
 /// Which delivery a publisher gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -3,7 +3,7 @@
 //! until `time + validity`; a stepper that stops hearing it falls back to the
 //! fail-safe (red lights, blocked crosswalks).
 
-use trafficmesh_model::wire::Heartbeat;
+use trafficmesh_protocol::wire::Heartbeat;
 
 #[derive(Clone, Copy, Debug)]
 pub struct Vouch {

@@ -5,7 +5,6 @@
 
 mod bus;
 mod heartbeat;
-mod keys;
 mod lockstep;
 mod ports;
 pub mod runtime;
@@ -14,7 +13,6 @@ mod status;
 
 pub use bus::{Bus, Lane, Publisher};
 pub use heartbeat::Vouch;
-pub use keys::{Keys, is_plain_chunk};
 pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
@@ -24,8 +22,8 @@ use thiserror::Error;
 
 #[derive(Debug, Error)]
 pub enum BusError {
-    #[error("cluster name '{0}' must be one key chunk: no '/', '*', '$', '?', '#' or spaces")]
-    ClusterName(String),
+    #[error(transparent)]
+    ClusterName(#[from] trafficmesh_protocol::KeyError),
     #[error("zenoh config {what}: {reason}")]
     Config { what: String, reason: String },
     #[error("zenoh: {0}")]

@@ -9,10 +9,11 @@ use std::time::Duration;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-use trafficmesh_model::wire::LockstepTick;
+use trafficmesh_protocol::wire::LockstepTick;
 use zenoh::query::{ConsolidationMode, QueryTarget};
 
-use crate::{Bus, BusError, Keys};
+use crate::{Bus, BusError};
+use trafficmesh_protocol::Keys;
 
 /// How long one round waits for a member; a slower one is asked again.
 pub const ROUND_TIMEOUT: Duration = Duration::from_secs(5);

@@ -59,7 +59,10 @@ pub fn check_key_names<'a>(
     what: &str,
     names: impl IntoIterator<Item = &'a str>,
 ) -> anyhow::Result<()> {
-    match names.into_iter().find(|n| !crate::is_plain_chunk(n)) {
+    match names
+        .into_iter()
+        .find(|n| !trafficmesh_protocol::is_plain_chunk(n))
+    {
         Some(n) => anyhow::bail!(
             "{what} '{n}': a name used in a key must not contain '/', '*', '$', '?', '#' or spaces"
         ),

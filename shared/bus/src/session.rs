@@ -8,7 +8,8 @@ use std::path::PathBuf;
 use clap::Args;
 use zenoh::Config;
 
-use crate::{BusError, Keys};
+use crate::BusError;
+use trafficmesh_protocol::Keys;
 
 /// The endpoint of the embedded cluster.
 pub const DEFAULT_ENDPOINT: &str = "tcp/127.0.0.1:7447";
@@ -45,7 +46,7 @@ pub enum Role {
 
 impl BusArgs {
     pub fn keys(&self) -> Result<Keys, BusError> {
-        Keys::new(&self.cluster)
+        Ok(Keys::new(&self.cluster)?)
     }
 
     /// The Zenoh config: the file if given, else the embedded default; then the flags.

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use std::sync::Mutex;
 use std::time::Duration;
 
-use trafficmesh_model::wire::ServiceStatus;
+use trafficmesh_protocol::wire::ServiceStatus;
 
 use crate::{Bus, Lane};
 

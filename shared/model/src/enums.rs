@@ -115,3 +115,32 @@ pub enum TurnSignal {
     Left,
     Right,
 }
+
+// Every variant in code order: the binary vehicle batch sends the index.
+impl SpeedMode {
+    pub const ALL: [SpeedMode; 5] = [
+        SpeedMode::Normal,
+        SpeedMode::Slow,
+        SpeedMode::Stop,
+        SpeedMode::SuddenStop,
+        SpeedMode::AbsoluteStop,
+    ];
+}
+
+impl YieldPhase {
+    pub const ALL: [YieldPhase; 9] = [
+        YieldPhase::None,
+        YieldPhase::EnteringIntersection,
+        YieldPhase::AtIntersection,
+        YieldPhase::IntersectionBlocked,
+        YieldPhase::LeftHandRuleEnteringIntersection,
+        YieldPhase::LeftHandRuleAtIntersection,
+        YieldPhase::LanesRulesEnteringIntersection,
+        YieldPhase::LanesRulesAtIntersection,
+        YieldPhase::ForcingPriority,
+    ];
+}
+
+impl TurnSignal {
+    pub const ALL: [TurnSignal; 3] = [TurnSignal::Off, TurnSignal::Left, TurnSignal::Right];
+}

@@ -12,7 +12,6 @@ pub mod geometry;
 pub mod map;
 pub mod spawn_config;
 pub mod vehicle_config;
-pub mod wire;
 
 pub use catalog::{VehicleKind, builtin_kind};
 pub use driver_model::{DriverModel, IdmParams};

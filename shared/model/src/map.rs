@@ -109,6 +109,34 @@ impl LightProgram {
     pub fn cycle(&self) -> f64 {
         self.green + self.yellow + self.red
     }
+
+    /// What is wrong with the program, as (field, problem) pairs; empty when
+    /// it can run. Maps and the lights' overrides check programs by this.
+    pub fn problems(&self) -> Vec<(&'static str, String)> {
+        let mut problems = Vec::new();
+        for (field, v) in [
+            ("program.green", self.green),
+            ("program.yellow", self.yellow),
+            ("program.red", self.red),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                problems.push((
+                    field,
+                    format!("must be a non-negative number of seconds, got {v}"),
+                ));
+            }
+        }
+        if !self.offset.is_finite() {
+            problems.push((
+                "program.offset",
+                "must be a finite number of seconds".into(),
+            ));
+        }
+        if !positive(self.cycle()) {
+            problems.push(("program", "green + yellow + red must be positive".into()));
+        }
+        problems
+    }
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -542,25 +570,8 @@ impl MapFile {
             if !seen.insert(g.name.as_str()) {
                 p.add(&el, "name", "duplicate light group name");
             }
-            let pr = &g.program;
-            for (field, v) in [
-                ("program.green", pr.green),
-                ("program.yellow", pr.yellow),
-                ("program.red", pr.red),
-            ] {
-                if !(v.is_finite() && v >= 0.0) {
-                    p.add(
-                        &el,
-                        field,
-                        format!("must be a non-negative number of seconds, got {v}"),
-                    );
-                }
-            }
-            if !pr.offset.is_finite() {
-                p.add(&el, "program.offset", "must be a finite number of seconds");
-            }
-            if !positive(pr.cycle()) {
-                p.add(&el, "program", "green + yellow + red must be positive");
+            for (field, problem) in g.program.problems() {
+                p.add(&el, field, problem);
             }
         }
     }

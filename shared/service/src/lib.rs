@@ -7,7 +7,23 @@ pub mod args;
 pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
 
 use trafficmesh_maps::FileError;
-use trafficmesh_sim::LaneNetwork;
+use trafficmesh_protocol::wire::EgoPose;
+use trafficmesh_sim::{Ego, LaneNetwork, Pose};
+
+/// The ego as the simulation takes it, from its pose on the bus.
+pub fn ego_of(p: &EgoPose) -> Ego {
+    Ego {
+        pose: Pose {
+            x: p.x,
+            y: p.y,
+            z: p.z,
+            yaw: p.yaw,
+        },
+        length: p.length,
+        width: p.width,
+        front_offset: p.front_offset,
+    }
+}
 
 /// Loads a map (any format), with a SUMO route file's demand in place of the
 /// map's own simulators when one is given, and compiles it; the route

@@ -54,19 +54,3 @@ impl Ego {
         (self.length * 0.5).hypot(self.width * 0.5)
     }
 }
-
-impl From<&trafficmesh_model::wire::EgoPose> for Ego {
-    fn from(p: &trafficmesh_model::wire::EgoPose) -> Self {
-        Ego {
-            pose: Pose {
-                x: p.x,
-                y: p.y,
-                z: p.z,
-                yaw: p.yaw,
-            },
-            length: p.length,
-            width: p.width,
-            front_offset: p.front_offset,
-        }
-    }
-}

@@ -41,5 +41,5 @@ pub use ego::Ego;
 pub use events::{DespawnReason, SimEvent, TripRecord};
 pub use network::{LaneId, LaneNetwork};
 pub use trajectory::TrajectoryHash;
-pub use vehicle::{Vehicle, VehicleId};
+pub use vehicle::{Pose, Vehicle, VehicleId};
 pub use world::{WaitStats, World, WorldConfig, WorldError};

@@ -5,10 +5,10 @@ use axum::Json;
 use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
-use trafficmesh_model::wire::{
+use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_protocol::wire::{
     BlockedStopAnswer, BlockedStopQuery, EgoPose, LightOverride, LightState,
 };
-use trafficmesh_model::{LightColor, LightProgram};
 use utoipa::ToSchema;
 
 use super::AppState;
@@ -173,7 +173,7 @@ pub async fn blocked_stop(
     ApiJson(p): ApiJson<Pose>,
 ) -> Result<Json<BlockedStop>, Problem> {
     if let Some(field) =
-        trafficmesh_model::wire::first_non_finite(&[("x", p.x), ("y", p.y), ("yaw", p.yaw)])
+        trafficmesh_protocol::wire::first_non_finite(&[("x", p.x), ("y", p.y), ("yaw", p.yaw)])
     {
         return Err(Problem::unprocessable(format!(
             "field '{field}' is not a finite number"

@@ -5,7 +5,7 @@ use axum::Json;
 use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
-use trafficmesh_model::wire::{
+use trafficmesh_protocol::wire::{
     RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest, VehicleBatch, VehicleState,
 };
 use utoipa::{IntoParams, ToSchema};

@@ -12,7 +12,7 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
-use trafficmesh_model::wire::Clock;
+use trafficmesh_protocol::wire::Clock;
 
 use super::bench_up::BenchCluster;
 

@@ -12,7 +12,7 @@ use super::bench_up::BenchCluster;
 use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
-use trafficmesh_model::wire::{Clock, VehicleBatch};
+use trafficmesh_protocol::wire::{Clock, VehicleBatch};
 
 #[derive(Args)]
 pub struct ClusterArgs {

@@ -5,7 +5,7 @@ use std::time::Duration;
 use anyhow::{Result, bail};
 use clap::Args;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role};
-use trafficmesh_model::wire::EgoPose;
+use trafficmesh_protocol::wire::EgoPose;
 
 #[derive(Args)]
 pub struct EgoArgs {

@@ -5,9 +5,10 @@ use std::time::Duration;
 
 use anyhow::Result;
 use clap::Args;
-use trafficmesh_bus::{Bus, BusArgs, Keys, Role};
+use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_model::LightColor;
-use trafficmesh_model::wire::{Clock, CrosswalkOccupancy, LightState};
+use trafficmesh_protocol::Keys;
+use trafficmesh_protocol::wire::{Clock, CrosswalkOccupancy, LightState};
 
 #[derive(Args)]
 pub struct WatchArgs {

@@ -2,7 +2,12 @@
 //! several clusters share one Zenoh network without seeing each other.
 //! docs/cluster.md's "Bus" table documents each key's direction, rate and payload.
 
-use crate::BusError;
+use thiserror::Error;
+
+/// A cluster name that is not one plain key chunk.
+#[derive(Debug, Error)]
+#[error("cluster name '{0}' must be one key chunk: no '/', '*', '$', '?', '#' or spaces")]
+pub struct KeyError(pub String);
 
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Keys {
@@ -11,9 +16,9 @@ pub struct Keys {
 
 impl Keys {
     /// Checks that `cluster` is one plain key chunk.
-    pub fn new(cluster: &str) -> Result<Self, BusError> {
+    pub fn new(cluster: &str) -> Result<Self, KeyError> {
         if !is_plain_chunk(cluster) {
-            return Err(BusError::ClusterName(cluster.to_string()));
+            return Err(KeyError(cluster.to_string()));
         }
         Ok(Keys {
             cluster: cluster.to_string(),

@@ -20,7 +20,7 @@
 use thiserror::Error;
 
 use super::{VehicleBatch, VehicleState};
-use crate::{SpeedMode, TurnSignal, YieldPhase};
+use trafficmesh_model::{SpeedMode, TurnSignal, YieldPhase};
 
 pub const MAGIC: &[u8; 4] = b"TMVB";
 pub const VERSION: u16 = 2;
@@ -59,34 +59,6 @@ pub enum DecodeError {
         field: &'static str,
         code: u8,
     },
-}
-
-impl SpeedMode {
-    pub const ALL: [SpeedMode; 5] = [
-        SpeedMode::Normal,
-        SpeedMode::Slow,
-        SpeedMode::Stop,
-        SpeedMode::SuddenStop,
-        SpeedMode::AbsoluteStop,
-    ];
-}
-
-impl YieldPhase {
-    pub const ALL: [YieldPhase; 9] = [
-        YieldPhase::None,
-        YieldPhase::EnteringIntersection,
-        YieldPhase::AtIntersection,
-        YieldPhase::IntersectionBlocked,
-        YieldPhase::LeftHandRuleEnteringIntersection,
-        YieldPhase::LeftHandRuleAtIntersection,
-        YieldPhase::LanesRulesEnteringIntersection,
-        YieldPhase::LanesRulesAtIntersection,
-        YieldPhase::ForcingPriority,
-    ];
-}
-
-impl TurnSignal {
-    pub const ALL: [TurnSignal; 3] = [TurnSignal::Off, TurnSignal::Left, TurnSignal::Right];
 }
 
 impl VehicleBatch {

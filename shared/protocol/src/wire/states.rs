@@ -5,7 +5,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use crate::{LightColor, LightProgram};
+use trafficmesh_model::{LightColor, LightProgram};
 
 /// `<cluster>/lights/state/<group>`: published when the colour changes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

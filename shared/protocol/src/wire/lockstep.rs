@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{CrosswalkOccupancy, Heartbeat, LightState, SpawnBatch, SpawnVerdict};
-use crate::TrafficSpawnConfig;
+use trafficmesh_model::TrafficSpawnConfig;
 
 /// Query payload of `<cluster>/lockstep/step/*` (stepper → members) and
 /// `<cluster>/lockstep/agents/*` (crosswalks → agent sources, which answer

@@ -23,7 +23,7 @@ pub struct SpawnOrder {
     /// The kind itself when it is not a built-in one (a route file's vType),
     /// so that the stepper need not read the route files.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub kind_def: Option<crate::VehicleKind>,
+    pub kind_def: Option<trafficmesh_model::VehicleKind>,
     /// A timetable's departure time, for the departure delay.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub depart: Option<f64>,

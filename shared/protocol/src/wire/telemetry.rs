@@ -2,7 +2,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::{SpeedMode, TurnSignal, YieldPhase};
+use trafficmesh_model::{SpeedMode, TurnSignal, YieldPhase};
 
 /// `<cluster>/clock`: one per tick.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
