@@ -605,7 +605,7 @@ fn the_branch_csv_matches_the_statistics() {
     // The same bytes as the spawner's own answer on the bus.
     let over_bus = runtime().block_on(async {
         let bus = cluster.client().await;
-        let key = bus.keys().spawner("branch_csv");
+        let key = bus.keys().key(&trafficmesh_protocol::topics::BRANCH_CSV);
         let deadline = Instant::now() + Duration::from_secs(20);
         loop {
             // Retried while this new session learns of the spawner's queryable.

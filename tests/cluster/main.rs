@@ -286,7 +286,13 @@ fn remove_vehicles_in_radius_over_the_bus_returns_the_count_and_they_vanish() {
             z: 0.0,
             radius: 1000.0,
         };
-        let answer: RemoveAnswer = ask(&bus, &bus.keys().spawner("remove"), &target).await;
+        let answer: RemoveAnswer = ask(
+            &bus,
+            &bus.keys()
+                .key(&trafficmesh_protocol::topics::SPAWNER_REMOVE),
+            &target,
+        )
+        .await;
         assert!(
             answer.removed >= ids.len(),
             "removed {} of at least {}",
@@ -301,7 +307,8 @@ fn remove_vehicles_in_radius_over_the_bus_returns_the_count_and_they_vanish() {
         );
         let none: RemoveAnswer = ask(
             &bus,
-            &bus.keys().spawner("remove"),
+            &bus.keys()
+                .key(&trafficmesh_protocol::topics::SPAWNER_REMOVE),
             &RemoveTarget::Point {
                 x: 5000.0,
                 y: 5000.0,

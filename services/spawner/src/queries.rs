@@ -7,24 +7,53 @@ use std::time::Duration;
 use trafficmesh_bus::BusError;
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_protocol::wire::{RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest};
+use trafficmesh_protocol::{Keys, topics};
 use zenoh::bytes::Encoding;
 use zenoh::query::Query;
 
 use crate::Spawner;
 
+/// The queries the spawner answers, each on its declared key.
+#[derive(Clone, Copy)]
+enum Command {
+    Config,
+    SetConfig,
+    SaveConfig,
+    LoadConfig,
+    BranchCsv,
+    Remove,
+    Restart,
+}
+
+impl Command {
+    const ALL: [Command; 7] = [
+        Command::Config,
+        Command::SetConfig,
+        Command::SaveConfig,
+        Command::LoadConfig,
+        Command::BranchCsv,
+        Command::Remove,
+        Command::Restart,
+    ];
+
+    fn key(self, keys: &Keys) -> String {
+        match self {
+            Command::Config => keys.key(&topics::SPAWN_CONFIG),
+            Command::SetConfig => keys.key(&topics::SPAWN_CONFIG_SET),
+            Command::SaveConfig => keys.key(&topics::SPAWN_CONFIG_SAVE),
+            Command::LoadConfig => keys.key(&topics::SPAWN_CONFIG_LOAD),
+            Command::BranchCsv => keys.key(&topics::BRANCH_CSV),
+            Command::Remove => keys.key(&topics::SPAWNER_REMOVE),
+            Command::Restart => keys.key(&topics::SPAWNER_RESTART),
+        }
+    }
+}
+
 pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     let bus = spawner.bus.clone();
     let keys = bus.keys().clone();
-    for command in [
-        "config",
-        "config/set",
-        "config/save",
-        "config/load",
-        "branch_csv",
-        "remove",
-        "restart",
-    ] {
-        let queryable = bus.queryable(&keys.spawner(command)).await?;
+    for command in Command::ALL {
+        let queryable = bus.queryable(&command.key(&keys)).await?;
         let s = spawner.clone();
         tokio::spawn(async move {
             while let Ok(query) = queryable.recv_async().await {
@@ -37,14 +66,14 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     Ok(())
 }
 
-async fn answer(s: &Spawner, command: &str, query: &Query) {
+async fn answer(s: &Spawner, command: Command, query: &Query) {
     let bus = &s.bus;
     match command {
-        "config" => {
+        Command::Config => {
             let config = s.state().config.clone();
             bus.reply(query, &config).await;
         }
-        "config/set" => {
+        Command::SetConfig => {
             let Some(config) = bus.query_payload::<TrafficSpawnConfig>(query).await else {
                 return;
             };
@@ -62,7 +91,7 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 }
             }
         }
-        "config/save" => {
+        Command::SaveConfig => {
             let config = s.state().config.clone();
             match trafficmesh_maps::save_spawn_config(&s.spawn_config_path, &config) {
                 Ok(()) => {
@@ -73,7 +102,7 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 Err(e) => bus.reply_error(query, &e.to_string()).await,
             }
         }
-        "config/load" => {
+        Command::LoadConfig => {
             let loaded = trafficmesh_maps::load_spawn_config(&s.spawn_config_path)
                 .map_err(|e| vec![e.to_string()])
                 .and_then(|c| s.state().set_config(c));
@@ -90,15 +119,15 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 }
             }
         }
-        "branch_csv" => {
+        Command::BranchCsv => {
             let csv = s.state().branch_csv();
             bus.reply_text(query, csv, Encoding::TEXT_CSV).await;
         }
-        "remove" => {
+        Command::Remove => {
             let Some(target) = bus.query_payload::<RemoveTarget>(query).await else {
                 return;
             };
-            let key = bus.keys().stepper("remove");
+            let key = bus.keys().key(&topics::STEPPER_REMOVE);
             match bus
                 .get::<_, RemoveAnswer>(&key, Some(&target), Duration::from_secs(3))
                 .await
@@ -107,12 +136,12 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 Err(e) => bus.reply_error(query, &e.to_string()).await,
             }
         }
-        "restart" => {
+        Command::Restart => {
             let Some(request) = bus.query_payload::<RestartRequest>(query).await else {
                 return;
             };
             s.state().restart(request.max_vehicles, request.seed);
-            let key = bus.keys().stepper("restart");
+            let key = bus.keys().key(&topics::STEPPER_RESTART);
             match bus
                 .get::<_, RestartAnswer>(&key, Some(&request), Duration::from_secs(3))
                 .await
@@ -124,6 +153,5 @@ async fn answer(s: &Spawner, command: &str, query: &Query) {
                 Err(e) => bus.reply_error(query, &e.to_string()).await,
             }
         }
-        _ => unreachable!("every declared command is answered"),
     }
 }

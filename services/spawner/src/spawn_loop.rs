@@ -32,7 +32,11 @@ pub async fn run(spawner: Arc<Spawner>) {
             continue;
         }
         let answer = bus
-            .get::<_, SpawnAnswer>(&keys.stepper("spawn"), Some(&batch), Duration::from_secs(2))
+            .get::<_, SpawnAnswer>(
+                &keys.key(&trafficmesh_protocol::topics::STEPPER_SPAWN),
+                Some(&batch),
+                Duration::from_secs(2),
+            )
             .await;
         let answer = match answer {
             Ok(a) if a.verdicts.len() == requests.len() => a,

@@ -85,9 +85,27 @@ pub async fn start(bus: Arc<Bus>, tx: InputSender) -> Result<(), BusError> {
     .await?;
     forward(&bus, &keys.ego(), &tx, Command::Ego).await?;
     forward(&bus, &keys.spawn_config(), &tx, Command::SpawnConfig).await?;
-    serve(&bus, &keys.stepper("spawn"), &tx, Request::Spawn).await?;
-    serve(&bus, &keys.stepper("remove"), &tx, Request::Remove).await?;
-    serve(&bus, &keys.stepper("restart"), &tx, Request::Restart).await?;
+    serve(
+        &bus,
+        &keys.key(&trafficmesh_protocol::topics::STEPPER_SPAWN),
+        &tx,
+        Request::Spawn,
+    )
+    .await?;
+    serve(
+        &bus,
+        &keys.key(&trafficmesh_protocol::topics::STEPPER_REMOVE),
+        &tx,
+        Request::Remove,
+    )
+    .await?;
+    serve(
+        &bus,
+        &keys.key(&trafficmesh_protocol::topics::STEPPER_RESTART),
+        &tx,
+        Request::Restart,
+    )
+    .await?;
     Ok(())
 }
 

@@ -1,8 +1,10 @@
 //! The key-expression scheme: every key starts with the cluster name, so
-//! several clusters share one Zenoh network without seeing each other.
-//! docs/cluster.md's "Bus" table documents each key's direction, rate and payload.
+//! several clusters share one Zenoh network without seeing each other; the
+//! rest is a declaration's pattern ([`crate::topics`]).
 
 use thiserror::Error;
+
+use crate::topics::*;
 
 /// A cluster name that is not one plain key chunk.
 #[derive(Debug, Error)]
@@ -29,99 +31,109 @@ impl Keys {
         &self.cluster
     }
 
-    fn key(&self, rest: &str) -> String {
+    fn key_of(&self, rest: &str) -> String {
         format!("{}/{rest}", self.cluster)
+    }
+
+    /// The key of a declaration without a named chunk.
+    pub fn key(&self, d: &impl Pattern) -> String {
+        debug_assert!(!d.pattern().contains('{'), "{} needs a name", d.pattern());
+        self.key_of(d.pattern())
+    }
+
+    /// The key of a declaration with its named chunk filled in.
+    pub fn key_at(&self, d: &impl Pattern, name: &str) -> String {
+        self.key_of(&fill(d.pattern(), name))
+    }
+
+    /// The key expression matching every name of a declaration.
+    pub fn key_all(&self, d: &impl Pattern) -> String {
+        self.key_of(&fill(d.pattern(), "*"))
     }
 
     /// Every key of the cluster.
     pub fn all(&self) -> String {
-        self.key("**")
+        self.key_of("**")
     }
     pub fn clock(&self) -> String {
-        self.key("clock")
+        self.key(&CLOCK)
     }
     pub fn vehicles(&self) -> String {
-        self.key("vehicles")
+        self.key(&VEHICLES)
     }
     pub fn events(&self) -> String {
-        self.key("events")
+        self.key(&EVENTS)
     }
     pub fn ego(&self) -> String {
-        self.key("ego")
+        self.key(&EGO)
     }
     pub fn spawn_config(&self) -> String {
-        self.key("spawner/config")
-    }
-    pub fn spawner(&self, command: &str) -> String {
-        self.key(&format!("spawner/{command}"))
-    }
-    pub fn stepper(&self, command: &str) -> String {
-        self.key(&format!("stepper/{command}"))
+        self.key(&SPAWN_CONFIG)
     }
     pub fn light_state(&self, group: &str) -> String {
-        self.key(&format!("lights/state/{group}"))
+        self.key_at(&LIGHT_STATE, group)
     }
     pub fn light_states(&self) -> String {
-        self.key("lights/state/*")
+        self.key_all(&LIGHT_STATE)
     }
     pub fn lights_heartbeat(&self) -> String {
-        self.key("lights/heartbeat")
+        self.key(&LIGHTS_HEARTBEAT)
     }
     pub fn lights_override(&self) -> String {
-        self.key("lights/override")
+        self.key(&LIGHTS_OVERRIDE)
     }
     pub fn occupancy(&self, area: &str) -> String {
-        self.key(&format!("crosswalks/occupancy/{area}"))
+        self.key_at(&OCCUPANCY, area)
     }
     pub fn occupancies(&self) -> String {
-        self.key("crosswalks/occupancy/*")
+        self.key_all(&OCCUPANCY)
     }
     pub fn crosswalks_heartbeat(&self) -> String {
-        self.key("crosswalks/heartbeat")
+        self.key(&CROSSWALKS_HEARTBEAT)
     }
     pub fn blocked_stop(&self) -> String {
-        self.key("crosswalks/blocked_stop")
+        self.key(&BLOCKED_STOP)
     }
     pub fn agents(&self, source: &str) -> String {
-        self.key(&format!("agents/{source}"))
+        self.key_at(&AGENTS, source)
     }
     pub fn all_agents(&self) -> String {
-        self.key("agents/*")
+        self.key_all(&AGENTS)
     }
     pub fn proposals(&self, simulator: &str) -> String {
-        self.key(&format!("simulators/{simulator}/proposals"))
+        self.key_at(&PROPOSALS, simulator)
     }
     pub fn all_proposals(&self) -> String {
-        self.key("simulators/*/proposals")
+        self.key_all(&PROPOSALS)
     }
     pub fn proposal_results(&self, simulator: &str) -> String {
-        self.key(&format!("simulators/{simulator}/results"))
+        self.key_at(&PROPOSAL_RESULTS, simulator)
     }
     pub fn status(&self, service: &str) -> String {
-        self.key(&format!("status/{service}"))
+        self.key_at(&STATUS, service)
     }
     pub fn all_status(&self) -> String {
-        self.key("status/*")
+        self.key_all(&STATUS)
     }
     pub fn alive(&self, service: &str) -> String {
-        self.key(&format!("alive/{service}"))
+        self.key_at(&ALIVE, service)
     }
     pub fn all_alive(&self) -> String {
-        self.key("alive/*")
+        self.key_all(&ALIVE)
     }
     /// Where a lockstep member answers the stepper's tick query.
     pub fn lockstep_member(&self, member: &str) -> String {
-        self.key(&format!("lockstep/step/{member}"))
+        self.key_at(&LOCKSTEP_STEP, member)
     }
     pub fn lockstep_members(&self) -> String {
-        self.key("lockstep/step/*")
+        self.key_all(&LOCKSTEP_STEP)
     }
     /// Where an agent source in lockstep answers the crosswalks' tick query.
     pub fn lockstep_agents(&self, source: &str) -> String {
-        self.key(&format!("lockstep/agents/{source}"))
+        self.key_at(&LOCKSTEP_AGENTS, source)
     }
     pub fn lockstep_all_agents(&self) -> String {
-        self.key("lockstep/agents/*")
+        self.key_all(&LOCKSTEP_AGENTS)
     }
 
     /// The last chunk of a key (a light group, an area, a service).
@@ -135,6 +147,14 @@ impl Keys {
         (parts.next() == Some("proposals"))
             .then(|| parts.next())
             .flatten()
+    }
+}
+
+/// `pattern` with its `{name}` chunk replaced by `name`.
+fn fill(pattern: &str, name: &str) -> String {
+    match (pattern.find('{'), pattern.find('}')) {
+        (Some(open), Some(close)) => format!("{}{name}{}", &pattern[..open], &pattern[close + 1..]),
+        _ => pattern.to_string(),
     }
 }
 

@@ -3,6 +3,7 @@
 //! per-tick vehicle batch). docs/cluster.md's key table documents both.
 
 pub mod keys;
+pub mod topics;
 pub mod wire;
 
 pub use keys::{KeyError, Keys, is_plain_chunk};

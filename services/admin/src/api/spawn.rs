@@ -32,7 +32,10 @@ pub async fn put_config(
     State(app): AppState,
     ApiJson(config): ApiJson<TrafficSpawnConfig>,
 ) -> Result<Json<TrafficSpawnConfig>, Problem> {
-    let key = app.bus.keys().spawner("config/set");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::SPAWN_CONFIG_SET);
     Ok(Json(
         app.bus.get(&key, Some(&config), app.bus_timeout).await?,
     ))
@@ -49,7 +52,10 @@ pub struct Saved {
 #[utoipa::path(post, path = "/api/v1/spawn-config/save", tag = "spawn config", security(("bearer" = [])),
     responses((status = 200, body = Saved), (status = 422, body = Problem)))]
 pub async fn save_config(State(app): AppState) -> Result<Json<Saved>, Problem> {
-    let key = app.bus.keys().spawner("config/save");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::SPAWN_CONFIG_SAVE);
     Ok(Json(
         app.bus.get::<(), _>(&key, None, app.bus_timeout).await?,
     ))
@@ -59,7 +65,10 @@ pub async fn save_config(State(app): AppState) -> Result<Json<Saved>, Problem> {
 #[utoipa::path(post, path = "/api/v1/spawn-config/load", tag = "spawn config", security(("bearer" = [])),
     responses((status = 200, body = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 422, body = Problem)))]
 pub async fn load_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig>, Problem> {
-    let key = app.bus.keys().spawner("config/load");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::SPAWN_CONFIG_LOAD);
     Ok(Json(
         app.bus.get::<(), _>(&key, None, app.bus_timeout).await?,
     ))
@@ -69,7 +78,10 @@ pub async fn load_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig
 #[utoipa::path(get, path = "/api/v1/branch-decisions.csv", tag = "spawn config",
     responses((status = 200, content_type = "text/csv", body = String)))]
 pub async fn branch_csv(State(app): AppState) -> Result<impl IntoResponse, Problem> {
-    let key = app.bus.keys().spawner("branch_csv");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::BRANCH_CSV);
     let bytes = app.bus.get_raw::<()>(&key, None, app.bus_timeout).await?;
     Ok((
         [

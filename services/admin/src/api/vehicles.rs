@@ -186,7 +186,10 @@ pub async fn remove(
     if let Some(problem) = target.problem() {
         return Err(Problem::unprocessable(problem));
     }
-    let key = app.bus.keys().spawner("remove");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::SPAWNER_REMOVE);
     let answer: RemoveAnswer = app.bus.get(&key, Some(&target), app.bus_timeout).await?;
     Ok(Json(Removed {
         removed: answer.removed,
@@ -218,7 +221,10 @@ pub async fn restart(
     State(app): AppState,
     ApiJson(r): ApiJson<Restart>,
 ) -> Result<Json<Restarted>, Problem> {
-    let key = app.bus.keys().spawner("restart");
+    let key = app
+        .bus
+        .keys()
+        .key(&trafficmesh_protocol::topics::SPAWNER_RESTART);
     let request = RestartRequest {
         max_vehicles: r.max_vehicles,
         seed: r.seed,

@@ -28,9 +28,9 @@ pub struct VehicleBatch {
     pub vehicles: Vec<VehicleState>,
 }
 
-/// One vehicle. Lanes and kinds are indices into the map's `lanes` and the
-/// stepper's `kinds` list (`<cluster>/stepper/map` answers both), to keep a
-/// batch of 10,000 vehicles small.
+/// One vehicle. Lanes and kinds are indices, into the map file's `lanes`
+/// array and into the vehicle catalogue (the built-in kinds, then the map's
+/// own), to keep a batch of 10,000 vehicles small.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VehicleState {
     pub id: u64,
