@@ -6,7 +6,7 @@ use std::time::Duration;
 
 use trafficmesh_bus::BusError;
 use trafficmesh_model::TrafficSpawnConfig;
-use trafficmesh_protocol::wire::{RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest};
+use trafficmesh_protocol::wire::{RemoveTarget, RestartRequest};
 use trafficmesh_protocol::{Keys, topics};
 use zenoh::bytes::Encoding;
 use zenoh::query::Query;
@@ -127,9 +127,8 @@ async fn answer(s: &Spawner, command: Command, query: &Query) {
             let Some(target) = bus.query_payload::<RemoveTarget>(query).await else {
                 return;
             };
-            let key = bus.keys().key(&topics::STEPPER_REMOVE);
             match bus
-                .get::<_, RemoveAnswer>(&key, Some(&target), Duration::from_secs(3))
+                .call(&topics::STEPPER_REMOVE, &target, Duration::from_secs(3))
                 .await
             {
                 Ok(a) => bus.reply(query, &a).await,
@@ -141,9 +140,8 @@ async fn answer(s: &Spawner, command: Command, query: &Query) {
                 return;
             };
             s.state().restart(request.max_vehicles, request.seed);
-            let key = bus.keys().key(&topics::STEPPER_RESTART);
             match bus
-                .get::<_, RestartAnswer>(&key, Some(&request), Duration::from_secs(3))
+                .call(&topics::STEPPER_RESTART, &request, Duration::from_secs(3))
                 .await
             {
                 Ok(a) => {

@@ -6,7 +6,8 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use trafficmesh_protocol::wire::{Clock, ProposalResult, SpawnAnswer, TickReport};
+use trafficmesh_protocol::topics;
+use trafficmesh_protocol::wire::{Clock, ProposalResult, TickReport};
 use trafficmesh_sim::spawn::SpawnRequest;
 
 use crate::Spawner;
@@ -32,11 +33,7 @@ pub async fn run(spawner: Arc<Spawner>) {
             continue;
         }
         let answer = bus
-            .get::<_, SpawnAnswer>(
-                &keys.key(&trafficmesh_protocol::topics::STEPPER_SPAWN),
-                Some(&batch),
-                Duration::from_secs(2),
-            )
+            .call(&topics::STEPPER_SPAWN, &batch, Duration::from_secs(2))
             .await;
         let answer = match answer {
             Ok(a) if a.verdicts.len() == requests.len() => a,

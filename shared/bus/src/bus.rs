@@ -15,6 +15,7 @@ use zenoh::sample::Sample;
 
 use crate::{BadPayloads, BusArgs, BusError, Role};
 use trafficmesh_protocol::Keys;
+use trafficmesh_protocol::topics::Call;
 
 /// Which delivery a publisher gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -311,6 +312,18 @@ impl Bus {
             what: std::any::type_name::<R>(),
             reason: e.to_string(),
         })
+    }
+
+    /// A declared query: the request its declaration takes, the answer it
+    /// gives, on the declared key.
+    pub async fn call<Req: Serialize, Resp: DeserializeOwned>(
+        &self,
+        call: &Call<Req, Resp>,
+        request: &Req,
+        timeout: Duration,
+    ) -> Result<Resp, BusError> {
+        self.get(&self.keys().key(call), Some(request), timeout)
+            .await
     }
 
     /// Every typed answer to a query on a key expression with wildcards.

@@ -5,9 +5,8 @@ use axum::Json;
 use axum::extract::{Path, Query, State};
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
-use trafficmesh_protocol::wire::{
-    RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest, VehicleBatch, VehicleState,
-};
+use trafficmesh_protocol::topics;
+use trafficmesh_protocol::wire::{RemoveTarget, RestartRequest, VehicleBatch, VehicleState};
 use utoipa::{IntoParams, ToSchema};
 
 use super::{App, AppState};
@@ -186,11 +185,10 @@ pub async fn remove(
     if let Some(problem) = target.problem() {
         return Err(Problem::unprocessable(problem));
     }
-    let key = app
+    let answer = app
         .bus
-        .keys()
-        .key(&trafficmesh_protocol::topics::SPAWNER_REMOVE);
-    let answer: RemoveAnswer = app.bus.get(&key, Some(&target), app.bus_timeout).await?;
+        .call(&topics::SPAWNER_REMOVE, &target, app.bus_timeout)
+        .await?;
     Ok(Json(Removed {
         removed: answer.removed,
     }))
@@ -221,15 +219,14 @@ pub async fn restart(
     State(app): AppState,
     ApiJson(r): ApiJson<Restart>,
 ) -> Result<Json<Restarted>, Problem> {
-    let key = app
-        .bus
-        .keys()
-        .key(&trafficmesh_protocol::topics::SPAWNER_RESTART);
     let request = RestartRequest {
         max_vehicles: r.max_vehicles,
         seed: r.seed,
     };
-    let answer: RestartAnswer = app.bus.get(&key, Some(&request), app.bus_timeout).await?;
+    let answer = app
+        .bus
+        .call(&topics::SPAWNER_RESTART, &request, app.bus_timeout)
+        .await?;
     Ok(Json(Restarted {
         disposed: answer.disposed,
         max_vehicles: answer.max_vehicles,
