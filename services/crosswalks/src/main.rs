@@ -13,6 +13,7 @@ use clap::Parser;
 use glam::DVec2;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
 use trafficmesh_protocol::Keys;
+use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, TickReport,
 };
@@ -144,7 +145,7 @@ fn run(args: Args) -> Result<()> {
 
 async fn publish(bus: &Bus, states: Vec<CrosswalkOccupancy>) {
     for s in states {
-        if let Err(e) = bus.put(&bus.keys().occupancy(&s.area), &s).await {
+        if let Err(e) = bus.publish_at(&topics::OCCUPANCY, &s.area, &s).await {
             tracing::warn!("cannot publish occupancy: {e}");
         }
     }

@@ -9,6 +9,7 @@ use anyhow::{Result, bail};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
 use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{Clock, LightOverride, LightState, TickReport};
 use trafficmesh_service::MapArgs;
 use trafficmesh_sim::LaneNetwork;
@@ -139,7 +140,7 @@ async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) 
             (g.advance(c.time, validity), vouch.due(c.time))
         };
         for s in changed {
-            bus.put(&keys.light_state(&s.group), &s).await?;
+            bus.publish_at(&topics::LIGHT_STATE, &s.group, &s).await?;
         }
         if let Some(b) = beat {
             heartbeat.put(&b).await?;
@@ -162,7 +163,7 @@ async fn follow_lockstep(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f6
         let bus = bus.clone();
         async move {
             for s in &changed {
-                if let Err(e) = bus.put(&bus.keys().light_state(&s.group), s).await {
+                if let Err(e) = bus.publish_at(&topics::LIGHT_STATE, &s.group, s).await {
                     tracing::warn!("cannot publish a light state: {e}");
                 }
             }
@@ -217,7 +218,9 @@ async fn take_overrides(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64
         match result {
             Ok(state) => {
                 tracing::info!("light group '{}' overridden: {:?}", o.group, state.color);
-                let _ = bus.put(&keys.light_state(&state.group), &state).await;
+                let _ = bus
+                    .publish_at(&topics::LIGHT_STATE, &state.group, &state)
+                    .await;
                 bus.reply(&query, &state).await;
             }
             Err(reason) => {

@@ -71,7 +71,11 @@ impl Spawner {
     /// Publishes the config in force, for the stepper's branch choices.
     pub async fn publish_config(&self) {
         let config = self.state().config.clone();
-        if let Err(e) = self.bus.put(&self.bus.keys().spawn_config(), &config).await {
+        if let Err(e) = self
+            .bus
+            .publish(&trafficmesh_protocol::topics::SPAWN_CONFIG, &config)
+            .await
+        {
             tracing::warn!("cannot publish the spawn config: {e}");
         }
     }

@@ -103,7 +103,7 @@ async fn announce(spawner: &Spawner, results: Vec<(String, String, u64)>, time: 
     for (simulator, tag, id) in results {
         let result = ProposalResult { tag, id, time };
         if let Err(e) = bus
-            .put(&bus.keys().proposal_results(&simulator), &result)
+            .publish_at(&topics::PROPOSAL_RESULTS, &simulator, &result)
             .await
         {
             tracing::warn!("cannot publish a proposal result: {e}");

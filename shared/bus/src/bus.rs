@@ -15,7 +15,7 @@ use zenoh::sample::Sample;
 
 use crate::{BadPayloads, BusArgs, BusError, Role};
 use trafficmesh_protocol::Keys;
-use trafficmesh_protocol::topics::Call;
+use trafficmesh_protocol::topics::{Call, Topic};
 
 /// Which delivery a publisher gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -137,6 +137,21 @@ impl Bus {
             .congestion_control(CongestionControl::Block)
             .await?;
         Ok(())
+    }
+
+    /// A sample of a declared key's own type on that key.
+    pub async fn publish<T: Serialize>(&self, topic: &Topic<T>, value: &T) -> Result<(), BusError> {
+        self.put(&self.keys().key(topic), value).await
+    }
+
+    /// A sample of a declared key's own type on that key, its named chunk `name`.
+    pub async fn publish_at<T: Serialize>(
+        &self,
+        topic: &Topic<T>,
+        name: &str,
+        value: &T,
+    ) -> Result<(), BusError> {
+        self.put(&self.keys().key_at(topic, name), value).await
     }
 
     pub async fn subscribe(

@@ -6,6 +6,7 @@ use axum::extract::{Path, State};
 use axum::http::StatusCode;
 use serde::{Deserialize, Serialize};
 use trafficmesh_model::{LightColor, LightProgram};
+use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{
     BlockedStopAnswer, BlockedStopQuery, EgoPose, LightOverride, LightState,
 };
@@ -24,7 +25,7 @@ pub async fn set_ego(
     if let Some(problem) = pose.problem() {
         return Err(Problem::unprocessable(problem));
     }
-    app.bus.put(&app.bus.keys().ego(), &pose).await?;
+    app.bus.publish(&topics::EGO, &pose).await?;
     Ok(StatusCode::NO_CONTENT)
 }
 
