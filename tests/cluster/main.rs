@@ -651,3 +651,58 @@ fn the_stepper_drives_at_the_lane_limits_of_an_imported_map_unless_told() {
         }
     }
 }
+
+/// A service started with another map than the stepper's refuses the
+/// cluster: the stepper's lane indices would name other lanes there.
+#[test]
+fn a_service_with_another_map_than_the_steppers_refuses_to_join() {
+    let cluster = Cluster::start("another_map", "", false, 1.0);
+    let lights = std::path::Path::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .with_file_name("trafficmesh-lights");
+    let other = repo().join("configs/sumo/grid3_crossings.net.xml");
+    let mut child = std::process::Command::new(lights)
+        .args(["--cluster", &cluster.name, "--connect", &cluster.endpoint])
+        .arg("--map")
+        .arg(&other)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("trafficmesh-lights starts");
+    let until = Instant::now() + Duration::from_secs(30);
+    let status = loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            break status;
+        }
+        if Instant::now() > until {
+            let _ = child.kill();
+            panic!("a lights service with another map kept running for 30 s");
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    };
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut stderr).unwrap();
+    assert!(!status.success(), "it exits with an error: {stderr}");
+    assert!(
+        stderr.contains("the stepper runs another map"),
+        "the error says why: {stderr}"
+    );
+    // The cluster itself goes on with its own lights.
+    runtime().block_on(async {
+        let bus = cluster.client().await;
+        let until = Instant::now() + Duration::from_secs(20);
+        loop {
+            let states: Vec<LightState> = bus
+                .get_each(&bus.keys().light_states(), Duration::from_secs(2))
+                .await
+                .unwrap();
+            if states.iter().any(|s| s.group == "J0_0_NS") {
+                break;
+            }
+            assert!(
+                Instant::now() < until,
+                "the cluster's own lights answer: {states:?}\n{}",
+                cluster.log()
+            );
+        }
+    });
+}

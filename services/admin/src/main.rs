@@ -106,13 +106,16 @@ fn run(args: Args) -> Result<()> {
         view.follow(bus.clone(), net.light_groups.len(), net.crosswalks.len())
             .await?;
         let (status_view, bind) = (view.clone(), args.bind.to_string());
+        let map = net.fingerprint();
         trafficmesh_bus::serve_status(
             bus.clone(),
+            Some(map),
             Arc::new(move || {
                 let time = status_view.read().clock.as_ref().map_or(0.0, |c| c.time);
                 (time, serde_json::json!({ "http": bind }))
             }),
         );
+        let refuse = bus.clone();
         let app = Arc::new(api::App {
             bus,
             view,
@@ -135,9 +138,10 @@ fn run(args: Args) -> Result<()> {
             "admin on http://{}: live map at /, API docs at /swagger-ui, metrics at /metrics",
             listener.local_addr()?
         );
-        axum::serve(listener, router)
-            .with_graceful_shutdown(runtime::shutdown_signal())
-            .await?;
+        tokio::select! {
+            r = axum::serve(listener, router).with_graceful_shutdown(runtime::shutdown_signal()) => r?,
+            e = trafficmesh_bus::another_map(&refuse, map) => return Err(e.into()),
+        }
         Ok(())
     })
 }

@@ -111,8 +111,10 @@ fn run(args: Args) -> Result<()> {
         let bus = Bus::open_service(&args.bus, Role::Member, "crosswalks").await?;
         let bus = Arc::new(bus);
         let status = areas.clone();
+        let map = areas.lock().expect("areas lock").net.fingerprint();
         trafficmesh_bus::serve_status(
             bus.clone(),
+            Some(map),
             Arc::new(move || {
                 let a = status.lock().expect("areas lock");
                 (
@@ -138,6 +140,7 @@ fn run(args: Args) -> Result<()> {
         tokio::select! {
             r = advance => r?,
             _ = runtime::shutdown_signal() => {}
+            e = trafficmesh_bus::another_map(&bus, map) => return Err(e.into()),
         }
         Ok(())
     })

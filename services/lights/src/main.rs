@@ -102,8 +102,10 @@ fn run(args: Args) -> Result<()> {
         let bus = Bus::open_service(&args.bus, Role::Member, "lights").await?;
         let bus = Arc::new(bus);
         let status = groups.clone();
+        let map = groups.lock().expect("lights lock").net.fingerprint();
         trafficmesh_bus::serve_status(
             bus.clone(),
+            Some(map),
             Arc::new(move || {
                 let g = status.lock().expect("lights lock");
                 (g.time, serde_json::json!({ "groups": g.published.len() }))
@@ -121,6 +123,7 @@ fn run(args: Args) -> Result<()> {
         tokio::select! {
             r = advance => r?,
             _ = runtime::shutdown_signal() => {}
+            e = trafficmesh_bus::another_map(&bus, map) => return Err(e.into()),
         }
         Ok(())
     })

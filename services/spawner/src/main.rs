@@ -118,8 +118,10 @@ fn run(args: Args) -> Result<()> {
         subscriptions::start(spawner.clone()).await?;
         queries::start(spawner.clone()).await?;
         let status = spawner.clone();
+        let map = spawner.state().net.fingerprint();
         trafficmesh_bus::serve_status(
             spawner.bus.clone(),
+            Some(map),
             Arc::new(move || {
                 let s = status.state();
                 let st = s.manager.stats();
@@ -149,7 +151,10 @@ fn run(args: Args) -> Result<()> {
         } else {
             tokio::spawn(spawn_loop::run(spawner.clone()));
         }
-        runtime::shutdown_signal().await;
+        tokio::select! {
+            _ = runtime::shutdown_signal() => {}
+            e = trafficmesh_bus::another_map(&spawner.bus, map) => return Err(e.into()),
+        }
         let csv = spawner.state().branch_csv();
         let rows = csv.lines().count().saturating_sub(1);
         trafficmesh_maps::write_atomic(&args.branch_csv, csv.as_bytes())?;

@@ -141,7 +141,8 @@ fn run(args: Args) -> Result<()> {
         inputs::start(bus.clone(), tx.clone()).await?;
         let outputs = telemetry::start(bus.clone()).await?;
         let status = shared.clone();
-        trafficmesh_bus::serve_status(bus.clone(), Arc::new(move || status.status()));
+        let map = Some(world.network().fingerprint());
+        trafficmesh_bus::serve_status(bus.clone(), map, Arc::new(move || status.status()));
         inputs::fetch_late_states(&bus, &tx).await;
         let lockstep = args.lockstep.then(|| {
             tracing::info!(

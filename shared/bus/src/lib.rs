@@ -16,7 +16,7 @@ pub use heartbeat::Vouch;
 pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
-pub use status::{BadPayloads, serve_status};
+pub use status::{BadPayloads, another_map, serve_status};
 
 use thiserror::Error;
 
@@ -28,6 +28,10 @@ pub enum BusError {
     Config { what: String, reason: String },
     #[error("zenoh: {0}")]
     Zenoh(String),
+    #[error(
+        "the stepper runs another map (fingerprint {theirs}, this process's {ours}): its lane indices would name other lanes here; start every service of the cluster with the same map"
+    )]
+    AnotherMap { theirs: String, ours: String },
     #[error("{key}: no answer within {timeout_ms} ms (is the service running?)")]
     NoAnswer { key: String, timeout_ms: u128 },
     /// An error answer; `problems` lists each problem when the service gave a list.

@@ -8,7 +8,7 @@ use std::time::Duration;
 
 use trafficmesh_protocol::wire::ServiceStatus;
 
-use crate::{Bus, Lane};
+use crate::{Bus, BusError, Lane};
 
 #[derive(Debug, Default)]
 pub struct BadPayloads {
@@ -35,6 +35,7 @@ impl BadPayloads {
 /// `details` gives the simulation time and the service's own counters.
 pub fn serve_status(
     bus: Arc<Bus>,
+    map: Option<u64>,
     details: Arc<dyn Fn() -> (f64, serde_json::Value) + Send + Sync>,
 ) {
     tokio::spawn(async move {
@@ -56,6 +57,7 @@ pub fn serve_status(
                 bad_payloads,
                 bad_payloads_by_key,
                 details,
+                map: map.map(|m| format!("{m:016x}")),
             }
         };
         let mut every_second = tokio::time::interval(Duration::from_secs(1));
@@ -70,4 +72,24 @@ pub fn serve_status(
             }
         }
     });
+}
+
+/// Returns once the stepper reports another map than `own` (a fingerprint):
+/// its lane indices would name other lanes here, so the service must stop
+/// rather than talk to it. Never returns while the maps agree.
+pub async fn another_map(bus: &Bus, own: u64) -> BusError {
+    let key = bus.keys().status("stepper");
+    let subscriber = match bus.subscribe(&key).await {
+        Ok(s) => s,
+        Err(e) => return e,
+    };
+    let ours = format!("{own:016x}");
+    while let Some(status) = bus.next_latest::<ServiceStatus>(&subscriber).await {
+        if let Some(theirs) = status.map
+            && theirs != ours
+        {
+            return BusError::AnotherMap { theirs, ours };
+        }
+    }
+    std::future::pending().await
 }

@@ -112,4 +112,8 @@ pub struct ServiceStatus {
     /// Service-specific counters.
     #[serde(default)]
     pub details: serde_json::Value,
+    /// The fingerprint of the map the service runs (16 hex digits), for
+    /// services that address lanes; services refuse a stepper with another.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
 }
