@@ -102,11 +102,12 @@ fn run(args: Args) -> Result<()> {
     runtime::tokio_runtime(2)?.block_on(async move {
         let metrics = metrics::install()?;
         let bus = Arc::new(Bus::open_service(&args.bus, Role::Member, "admin").await?);
+        let map = net.fingerprint();
+        trafficmesh_bus::check_map(&bus, map).await?;
         let view = Arc::new(view::ClusterView::default());
         view.follow(bus.clone(), net.light_groups.len(), net.crosswalks.len())
             .await?;
         let (status_view, bind) = (view.clone(), args.bind.to_string());
-        let map = net.fingerprint();
         trafficmesh_bus::serve_status(
             bus.clone(),
             Some(map),

@@ -112,6 +112,7 @@ fn run(args: Args) -> Result<()> {
         let bus = Arc::new(bus);
         let status = areas.clone();
         let map = areas.lock().expect("areas lock").net.fingerprint();
+        trafficmesh_bus::check_map(&bus, map).await?;
         trafficmesh_bus::serve_status(
             bus.clone(),
             Some(map),

@@ -103,6 +103,7 @@ fn run(args: Args) -> Result<()> {
         let bus = Arc::new(bus);
         let status = groups.clone();
         let map = groups.lock().expect("lights lock").net.fingerprint();
+        trafficmesh_bus::check_map(&bus, map).await?;
         trafficmesh_bus::serve_status(
             bus.clone(),
             Some(map),

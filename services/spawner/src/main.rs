@@ -115,10 +115,11 @@ fn run(args: Args) -> Result<()> {
             state: Mutex::new(state),
             spawn_config_path: args.spawn_config.clone(),
         });
+        let map = spawner.state().net.fingerprint();
+        trafficmesh_bus::check_map(&spawner.bus, map).await?;
         subscriptions::start(spawner.clone()).await?;
         queries::start(spawner.clone()).await?;
         let status = spawner.clone();
-        let map = spawner.state().net.fingerprint();
         trafficmesh_bus::serve_status(
             spawner.bus.clone(),
             Some(map),

@@ -74,6 +74,24 @@ pub fn serve_status(
     });
 }
 
+/// Asks the stepper for its status once, before a service says anything on
+/// the bus: an error when it runs another map than `own`. A stepper not (yet)
+/// answering is no error; [`another_map`] keeps watching.
+pub async fn check_map(bus: &Bus, own: u64) -> Result<(), BusError> {
+    let key = bus.keys().status("stepper");
+    let Ok(status) = bus
+        .get::<(), ServiceStatus>(&key, None, Duration::from_secs(1))
+        .await
+    else {
+        return Ok(());
+    };
+    let ours = format!("{own:016x}");
+    match status.map {
+        Some(theirs) if theirs != ours => Err(BusError::AnotherMap { theirs, ours }),
+        _ => Ok(()),
+    }
+}
+
 /// Returns once the stepper reports another map than `own` (a fingerprint):
 /// its lane indices would name other lanes here, so the service must stop
 /// rather than talk to it. Never returns while the maps agree.
