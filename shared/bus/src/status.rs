@@ -57,7 +57,7 @@ pub fn serve_status(
                 bad_payloads,
                 bad_payloads_by_key,
                 details,
-                map: map.map(|m| format!("{m:016x}")),
+                map: map.map(fingerprint_text),
             }
         };
         let mut every_second = tokio::time::interval(Duration::from_secs(1));
@@ -74,21 +74,31 @@ pub fn serve_status(
     });
 }
 
+/// A map fingerprint as statuses carry it.
+fn fingerprint_text(map: u64) -> String {
+    format!("{map:016x}")
+}
+
+/// The error when `stepper`'s status shows another map than `own`.
+fn another_than(stepper: ServiceStatus, own: u64) -> Option<BusError> {
+    let ours = fingerprint_text(own);
+    match stepper.map {
+        Some(theirs) if theirs != ours => Some(BusError::AnotherMap { theirs, ours }),
+        _ => None,
+    }
+}
+
 /// Asks the stepper for its status once, before a service says anything on
 /// the bus: an error when it runs another map than `own`. A stepper not (yet)
 /// answering is no error; [`another_map`] keeps watching.
 pub async fn check_map(bus: &Bus, own: u64) -> Result<(), BusError> {
     let key = bus.keys().status("stepper");
-    let Ok(status) = bus
+    match bus
         .get::<(), ServiceStatus>(&key, None, Duration::from_secs(1))
         .await
-    else {
-        return Ok(());
-    };
-    let ours = format!("{own:016x}");
-    match status.map {
-        Some(theirs) if theirs != ours => Err(BusError::AnotherMap { theirs, ours }),
-        _ => Ok(()),
+    {
+        Ok(status) => another_than(status, own).map_or(Ok(()), Err),
+        Err(_) => Ok(()),
     }
 }
 
@@ -101,12 +111,9 @@ pub async fn another_map(bus: &Bus, own: u64) -> BusError {
         Ok(s) => s,
         Err(e) => return e,
     };
-    let ours = format!("{own:016x}");
     while let Some(status) = bus.next_latest::<ServiceStatus>(&subscriber).await {
-        if let Some(theirs) = status.map
-            && theirs != ours
-        {
-            return BusError::AnotherMap { theirs, ours };
+        if let Some(refusal) = another_than(status, own) {
+            return refusal;
         }
     }
     std::future::pending().await

@@ -9,6 +9,7 @@
 use std::collections::HashMap;
 
 use roxmltree::Node;
+use trafficmesh_model::hash::{Fnv1a, GOLDEN, splitmix};
 use trafficmesh_model::map::{DepartureDef, MapFile, SimulatorDef};
 use trafficmesh_model::{IdmParams, VehicleKind};
 
@@ -226,10 +227,7 @@ type TieKey = u64;
 
 /// A draw of `lane`'s place among equally good lanes for one `spread` value.
 fn draw(spread: u64, lane: &str) -> u64 {
-    let mut z = mix(spread, lane, 0).wrapping_add(0x9E37_79B9_7F4A_7C15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
+    splitmix(mix(spread, lane, 0).wrapping_add(GOLDEN))
 }
 
 /// A small deterministic generator for `probability` flows (seeded by the flow id).
@@ -237,11 +235,8 @@ struct SplitMix(u64);
 
 impl SplitMix {
     fn next_f64(&mut self) -> f64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        self.0 = self.0.wrapping_add(GOLDEN);
+        (splitmix(self.0) >> 11) as f64 / (1u64 << 53) as f64
     }
 }
 
@@ -643,10 +638,9 @@ fn departure_times(
 
 /// A generator state from a seed, an element id and an index (FNV-1a).
 fn mix(seed: u64, id: &str, k: usize) -> u64 {
-    let h = id.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
-        (h ^ b as u64).wrapping_mul(0x100_0000_01b3)
-    });
-    h ^ seed.rotate_left(17) ^ (k as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    let mut h = Fnv1a::default();
+    h.eat(id.as_bytes());
+    h.0 ^ seed.rotate_left(17) ^ (k as u64).wrapping_mul(GOLDEN)
 }
 
 /// The built-in kind nearest in length (vehicles without a vType).

@@ -9,6 +9,7 @@ pub mod catalog;
 pub mod driver_model;
 pub mod enums;
 pub mod geometry;
+pub mod hash;
 pub mod map;
 pub mod spawn_config;
 pub mod vehicle_config;

@@ -96,7 +96,7 @@ fn realistic_speed(
         SpeedLimitSource::FixedSpeedLimit if v.is_turning => desired = desired.min(TURN_SPEED),
         SpeedLimitSource::FixedSpeedLimit => {}
         SpeedLimitSource::LaneletSpeedLimit => {
-            desired = desired.min(limit_ahead(net, v, idm.decel));
+            desired = limit_ahead(net, v, idm.decel, desired);
         }
     }
     let follow =
@@ -117,20 +117,24 @@ fn realistic_speed(
 /// How far ahead a lower lane limit is slowed for, metres.
 const LIMIT_LOOKAHEAD: f64 = 100.0;
 
-/// The highest speed from which every lane limit on the path ahead (within
-/// the look-ahead) is met braking at `decel` before that lane begins: drivers
-/// slow for a turn before they reach it, as SUMO's do, instead of braking
-/// hard once on it.
-fn limit_ahead(net: &LaneNetwork, v: &Vehicle, decel: f64) -> f64 {
-    let mut allowed = f64::INFINITY;
+/// `desired`, lowered to the highest speed from which every lane limit on
+/// the path ahead (within the look-ahead) is met braking at `decel` before
+/// that lane begins: drivers slow for a turn before they reach it, as SUMO's
+/// do, instead of braking hard once on it.
+fn limit_ahead(net: &LaneNetwork, v: &Vehicle, decel: f64, desired: f64) -> f64 {
+    let mut allowed = desired;
     let mut distance = net.lane(v.path[0]).length() - v.s;
     for &lane in &v.path[1..] {
         if distance > LIMIT_LOOKAHEAD {
             break;
         }
-        let limit = net.lane(lane).speed_limit;
-        allowed = allowed.min((limit * limit + 2.0 * decel * distance.max(0.0)).sqrt());
-        distance += net.lane(lane).length();
+        let l = net.lane(lane);
+        // A limit at or above the speed allowed so far cannot lower it.
+        if l.speed_limit < allowed {
+            let limit = l.speed_limit;
+            allowed = allowed.min((limit * limit + 2.0 * decel * distance.max(0.0)).sqrt());
+        }
+        distance += l.length();
     }
     allowed
 }

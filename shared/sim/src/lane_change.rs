@@ -157,6 +157,39 @@ impl<'c> Gaps<'c> {
     }
 }
 
+/// A waiting lane changer slower than this, m/s, is given a gap.
+const URGENT_SPEED: f64 = 3.0;
+/// A waiting lane changer this near its lane's end, metres, is given a gap.
+const URGENT_DISTANCE: f64 = 50.0;
+/// Metres more than to a body that a vehicle stays behind a lane-change
+/// ghost, so that the gap it leaves is enough for the waiting car to move in.
+const GHOST_MARGIN: f64 = 2.0;
+
+/// Where `follower`, on the lane `changer` waits to move onto, stops for it
+/// (along its path, `rear` being the changer's rear there), or None when it
+/// drives on. Once the change is urgent (the changer slowed for want of a gap,
+/// or near its lane's end) a follower that can stop short of it, braking as
+/// for a car cutting in (a realistic driver's comfortable deceleration, the
+/// reference's sudden one), stays [`GHOST_MARGIN`] further back than behind a
+/// car: SUMO's cooperative lane change, which lets a waiting car into a queue
+/// starting up. One already beside it, or too near to leave it room, drives on.
+pub fn stop_for_ghost(
+    net: &LaneNetwork,
+    config: &NpcVehicleConfig,
+    follower: &Vehicle,
+    changer: &Vehicle,
+    rear: f64,
+) -> Option<f64> {
+    let urgent = changer.speed < URGENT_SPEED
+        || net.lane(changer.path[0]).length() - changer.s < URGENT_DISTANCE;
+    let decel = match crate::control::driver_model(net, follower, config) {
+        DriverModel::Awsim => config.sudden_deceleration,
+        DriverModel::Realistic(idm) => idm.decel,
+    };
+    let braking = follower.speed * follower.speed / (2.0 * decel);
+    (urgent && rear >= GHOST_MARGIN + braking).then_some(rear - GHOST_MARGIN)
+}
+
 /// The bodies on `target` too close to a body of `v`'s length at `v.s`: a gap
 /// is enough when neither the vehicle nor its new follower, closing in at the
 /// difference of their speeds, would need more than a sudden stop to keep

@@ -341,32 +341,22 @@ impl LaneNetwork {
     /// and the crosswalks. Two processes agree on lane indices only when their
     /// fingerprints do.
     pub fn fingerprint(&self) -> u64 {
-        // FNV-1a: stable across builds and platforms, unlike the std hasher.
-        let mut h: u64 = 0xcbf2_9ce4_8422_2325;
-        let mut eat = |bytes: &[u8]| {
-            for &b in bytes {
-                h ^= u64::from(b);
-                h = h.wrapping_mul(0x0100_0000_01b3);
-            }
-        };
-        eat(&(self.lanes.len() as u64).to_le_bytes());
+        let mut h = trafficmesh_model::hash::Fnv1a::default();
+        h.eat(&(self.lanes.len() as u64).to_le_bytes());
         for l in &self.lanes {
-            eat(l.name.as_bytes());
-            eat(&[0]);
+            h.eat(l.name.as_bytes());
+            h.eat(&[0]);
             for n in &l.next {
-                eat(&n.to_le_bytes());
+                h.eat(&n.to_le_bytes());
             }
-            eat(&((l.length() * 1000.0).round() as i64).to_le_bytes());
+            h.eat(&((l.length() * 1000.0).round() as i64).to_le_bytes());
         }
-        for g in &self.light_groups {
-            eat(g.name.as_bytes());
-            eat(&[0]);
+        let names = self.light_groups.iter().map(|g| &g.name);
+        for name in names.chain(self.crosswalks.iter().map(|c| &c.name)) {
+            h.eat(name.as_bytes());
+            h.eat(&[0]);
         }
-        for c in &self.crosswalks {
-            eat(c.name.as_bytes());
-            eat(&[0]);
-        }
-        h
+        h.0
     }
 
     /// May vehicles of kind `kind` drive on `lane`?

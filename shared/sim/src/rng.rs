@@ -8,16 +8,12 @@ use rand_pcg::Pcg64Mcg;
 pub struct SimRng(Pcg64Mcg);
 
 /// SplitMix64 finaliser: spreads (seed, stream) over the generator's state.
-pub(crate) fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
-}
+pub(crate) use trafficmesh_model::hash::splitmix as mix;
 
 impl SimRng {
     /// A stream determined by the run's seed and the owner's stream number.
     pub fn new(seed: u64, stream: u64) -> Self {
-        let hi = mix(seed ^ 0x9e37_79b9_7f4a_7c15);
+        let hi = mix(seed ^ trafficmesh_model::hash::GOLDEN);
         let lo = mix(stream.wrapping_add(hi));
         // The MCG state must be odd.
         SimRng(Pcg64Mcg::new(((hi as u128) << 64) | (lo as u128) | 1))

@@ -10,6 +10,7 @@ use super::path::{lanes_ahead, needed_lookahead};
 use crate::conflicts::Conflict;
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
+use crate::lane_change;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{Vehicle, VehicleId};
 
@@ -141,21 +142,21 @@ impl Search<'_, '_> {
             }
             let rear = offset + occ.rear;
             let front = offset + occ.front;
-            // A vehicle waiting to change onto this lane is given room by those
-            // who can still stop short of it, braking as for a car cutting in
-            // (SUMO's cooperative lane change); one already beside it, or too
-            // near to leave it room, drives on.
-            if occ.ghost
-                && (rear < GHOST_MARGIN + ghost_room(self.snap.net, v, self.snap.config)
-                    || !urgent(self.snap.net, &self.snap.vehicles[occ.vehicle as usize]))
-            {
-                continue;
-            }
+            // A vehicle waiting to change onto this lane: given room or not
+            // (see lane_change::stop_for_ghost).
+            let stop_at = if occ.ghost {
+                let changer = &self.snap.vehicles[occ.vehicle as usize];
+                match lane_change::stop_for_ghost(self.snap.net, self.snap.config, v, changer, rear)
+                {
+                    Some(at) => at,
+                    None => continue,
+                }
+            } else {
+                rear
+            };
             if rear > -v.length && front > 0.0 {
-                // Room for the waiting car's own gap behind it, too.
-                let margin = if occ.ghost { GHOST_MARGIN } else { 0.0 };
                 return FrontObstacle {
-                    distance: (rear - margin).max(0.0),
+                    distance: stop_at.max(0.0),
                     vehicle: Some(occ.vehicle),
                 };
             }
@@ -258,36 +259,6 @@ impl Search<'_, '_> {
                 (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
             })
     }
-}
-
-/// Whether a vehicle waiting to change lanes needs the gap made for it: near
-/// its lane's end or slowed down for want of one. Before that it finds gaps
-/// in the traffic as it comes (SUMO's drivers cooperate with urgent changes).
-fn urgent(net: &LaneNetwork, changer: &Vehicle) -> bool {
-    changer.speed < URGENT_SPEED || net.lane(changer.path[0]).length() - changer.s < URGENT_DISTANCE
-}
-
-/// A waiting lane changer slower than this, m/s, is given a gap.
-const URGENT_SPEED: f64 = 3.0;
-/// A waiting lane changer this near its lane's end, metres, is given a gap.
-const URGENT_DISTANCE: f64 = 50.0;
-
-/// Metres more than to a body that a vehicle stays behind a lane-change
-/// ghost: it stops that much further back than behind a car, so that the
-/// gap it leaves is enough for the waiting car to move in.
-const GHOST_MARGIN: f64 = 2.0;
-
-/// How far ahead a lane-change ghost must be for a vehicle to stop for it: its
-/// braking distance at the deceleration it accepts for a car cutting in (a
-/// realistic driver's comfortable one, the reference's sudden stop), beyond
-/// [`GHOST_MARGIN`]. A queue standing behind it waits, so that it lets the
-/// waiting car in.
-fn ghost_room(net: &LaneNetwork, v: &Vehicle, config: &trafficmesh_model::NpcVehicleConfig) -> f64 {
-    let decel = match crate::control::driver_model(net, v, config) {
-        trafficmesh_model::DriverModel::Awsim => config.sudden_deceleration,
-        trafficmesh_model::DriverModel::Realistic(idm) => idm.decel,
-    };
-    v.speed * v.speed / (2.0 * decel)
 }
 
 /// "Don't block the box": the vehicle that leaves no room on the lane after
