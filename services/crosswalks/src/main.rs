@@ -5,19 +5,20 @@
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::process::ExitCode;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Parser;
 use glam::DVec2;
-use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
+use trafficmesh_bus::{Bus, Vouch, runtime};
 use trafficmesh_protocol::Keys;
 use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{
-    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, TickReport,
+    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, LockstepTick,
+    TickReport,
 };
-use trafficmesh_service::MapArgs;
+use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
 use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
@@ -31,9 +32,7 @@ use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
 )]
 struct Args {
     #[command(flatten)]
-    bus: BusArgs,
-    #[command(flatten)]
-    map: MapArgs,
+    service: ServiceArgs,
     /// Simulation seconds published occupancy stays valid without a heartbeat;
     /// after that the stepper counts every crosswalk blocked.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
@@ -41,13 +40,9 @@ struct Args {
     /// Wall-clock seconds after which a silent agent source is forgotten.
     #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
     source_timeout: f64,
-    /// Advance on the stepper's lockstep questions instead of its clock
-    /// (answers on <cluster>/lockstep/step/crosswalks), asking the agent
-    /// sources in step (<cluster>/lockstep/agents/*) for each tick's agents.
-    #[arg(long)]
-    lockstep: bool,
     /// With --lockstep: agent sources no tick is answered without,
-    /// comma-separated (e.g. pedestrians).
+    /// comma-separated (e.g. pedestrians); each tick asks every source in
+    /// step (<cluster>/lockstep/agents/*) for its agents.
     #[arg(long, value_delimiter = ',', requires = "lockstep")]
     lockstep_sources: Vec<String>,
 }
@@ -61,6 +56,7 @@ struct Areas {
     /// publications are ignored.
     in_step: BTreeSet<String>,
     time: f64,
+    vouch: Vouch,
 }
 
 impl Areas {
@@ -75,76 +71,136 @@ impl Areas {
     }
 }
 
-fn main() -> ExitCode {
-    runtime::main_with(|| run(Args::parse()))
+struct Crosswalks {
+    areas: Mutex<Areas>,
+    map: u64,
+    validity: f64,
+    /// After this long (wall time) a silent source's agents are forgotten.
+    source_timeout: Duration,
+    /// Sources no lockstep tick is answered without.
+    required_sources: Vec<String>,
 }
 
-fn run(args: Args) -> Result<()> {
-    if !(args.validity.is_finite() && args.validity > 0.0) {
-        bail!(
-            "--validity must be a positive number of seconds, got {}",
-            args.validity
-        );
+impl Crosswalks {
+    fn areas(&self) -> MutexGuard<'_, Areas> {
+        self.areas.lock().expect("areas lock")
     }
-    if !(args.source_timeout.is_finite() && args.source_timeout > 0.0) {
-        bail!(
-            "--source-timeout must be a positive number of seconds, got {}",
-            args.source_timeout
-        );
-    }
-    args.bus.keys()?;
-    let net = args.map.load()?;
-    runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
-    let occupancy = Occupancy::new(net.crosswalks.len());
-    let agents = AgentOccupancy::new(&net.crosswalks);
-    let areas = Arc::new(Mutex::new(Areas {
-        net,
-        occupancy,
-        agents,
-        last_heard: BTreeMap::new(),
-        in_step: BTreeSet::new(),
-        time: 0.0,
-    }));
-    let validity = args.validity;
-    let timeout = Duration::from_secs_f64(args.source_timeout);
-    runtime::tokio_runtime(1)?.block_on(async move {
-        let bus = Bus::open_service(&args.bus, Role::Member, "crosswalks").await?;
-        let bus = Arc::new(bus);
-        let status = areas.clone();
-        let map = areas.lock().expect("areas lock").net.fingerprint();
-        trafficmesh_bus::check_map(&bus, map).await?;
-        trafficmesh_bus::serve_status(
-            bus.clone(),
-            Some(map),
-            Arc::new(move || {
-                let a = status.lock().expect("areas lock");
-                (
-                    a.time,
-                    serde_json::json!({
-                        "areas": a.net.crosswalks.len(),
-                        "occupied": a.occupancy.occupied_areas().len(),
-                        "sources": a.last_heard.len(),
-                    }),
-                )
-            }),
-        );
-        tokio::spawn(take_agents(bus.clone(), areas.clone(), validity));
-        tokio::spawn(answer_queries(bus.clone(), areas.clone(), validity));
-        let advance = async {
-            if args.lockstep {
-                let sources = (args.lockstep_sources, timeout);
-                follow_lockstep(bus.clone(), areas.clone(), validity, sources).await
-            } else {
-                follow_clock(bus.clone(), areas.clone(), validity, timeout).await
-            }
+}
+
+fn main() -> ExitCode {
+    runtime::main_with(|| {
+        let args = Args::parse();
+        trafficmesh_service::positive_seconds("validity", args.validity)?;
+        trafficmesh_service::positive_seconds("source-timeout", args.source_timeout)?;
+        let net = args.service.map.load()?;
+        runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
+        let areas = Areas {
+            occupancy: Occupancy::new(net.crosswalks.len()),
+            agents: AgentOccupancy::new(&net.crosswalks),
+            last_heard: BTreeMap::new(),
+            in_step: BTreeSet::new(),
+            time: 0.0,
+            vouch: Vouch::new(args.validity),
+            net,
         };
-        tokio::select! {
-            r = advance => r?,
-            _ = runtime::shutdown_signal() => {}
-            e = trafficmesh_bus::another_map(&bus, map) => return Err(e.into()),
+        let service = Crosswalks {
+            map: areas.net.fingerprint(),
+            areas: Mutex::new(areas),
+            validity: args.validity,
+            source_timeout: Duration::from_secs_f64(args.source_timeout),
+            required_sources: args.lockstep_sources,
+        };
+        trafficmesh_service::run(&args.service, service)
+    })
+}
+
+impl Service for Crosswalks {
+    const NAME: &'static str = "crosswalks";
+    type Answer = TickReport;
+
+    fn map(&self) -> u64 {
+        self.map
+    }
+
+    fn status(&self) -> (f64, serde_json::Value) {
+        let a = self.areas();
+        (
+            a.time,
+            serde_json::json!({
+                "areas": a.net.crosswalks.len(),
+                "occupied": a.occupancy.occupied_areas().len(),
+                "sources": a.last_heard.len(),
+            }),
+        )
+    }
+
+    async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
+        tokio::spawn(take_agents(bus.clone(), self.clone()));
+        tokio::spawn(answer_queries(bus.clone(), self.clone()));
+        Ok(())
+    }
+
+    /// Heartbeats on the stepper's clock, and forgetting silent sources.
+    async fn on_clock(&self, bus: &Arc<Bus>, c: Clock) -> Result<()> {
+        let (changed, beat) = {
+            let mut guard = self.areas();
+            let a = &mut *guard;
+            a.time = c.time;
+            let changed: Vec<_> = drop_silent(a, self.source_timeout)
+                .into_iter()
+                .map(|i| a.state(i, self.validity))
+                .collect();
+            (changed, a.vouch.due(c.time))
+        };
+        publish(bus, changed).await;
+        if let Some(beat) = beat {
+            bus.publish(&topics::CROSSWALKS_HEARTBEAT, &beat).await?;
         }
         Ok(())
-    })
+    }
+
+    /// For each tick, the agents of every source in step (asked again until
+    /// the required ones answered), then the areas that changed go to the
+    /// stepper with the answer, and on the occupancy keys for everyone else.
+    async fn on_tick(&self, bus: &Arc<Bus>, mut tick: LockstepTick) -> TickReport {
+        let heartbeat = self.areas().vouch.due(tick.time);
+        tick.spawn_verdicts.clear();
+        let batches = bus
+            .lockstep_round_of::<AgentBatch>(
+                &bus.keys().lockstep_all_agents(),
+                &tick,
+                &self.required_sources,
+                || true,
+            )
+            .await
+            .unwrap_or_default();
+        let changed = {
+            let mut guard = self.areas();
+            let a = &mut *guard;
+            a.time = tick.time;
+            // Sources that are not in step publish as they please.
+            let mut changed = drop_silent(a, self.source_timeout);
+            for (source, batch) in &batches {
+                if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
+                    bus.reject(&bus.keys().lockstep_agents(source), &problem);
+                    continue;
+                }
+                a.in_step.insert(source.clone());
+                changed.extend(a.agents.update_source(
+                    &a.net.crosswalks,
+                    &mut a.occupancy,
+                    source,
+                    &poses(batch),
+                ));
+            }
+            changed
+                .into_iter()
+                .map(|i| a.state(i, self.validity))
+                .collect::<Vec<_>>()
+        };
+        publish(bus, changed.clone()).await;
+        TickReport::Crosswalks { changed, heartbeat }
+    }
 }
 
 async fn publish(bus: &Bus, states: Vec<CrosswalkOccupancy>) {
@@ -168,66 +224,8 @@ fn poses(batch: &AgentBatch) -> Vec<AgentPose> {
         .collect()
 }
 
-/// In lockstep: for each tick, the agents of every source in step (asked
-/// again until the required ones answered), then the areas that changed go
-/// to the stepper with the answer, and on the occupancy keys for everyone else.
-async fn follow_lockstep(
-    bus: Arc<Bus>,
-    areas: Arc<Mutex<Areas>>,
-    validity: f64,
-    (required, timeout): (Vec<String>, Duration),
-) -> Result<()> {
-    let key = bus.keys().lockstep_member("crosswalks");
-    let sources_key = bus.keys().lockstep_all_agents();
-    let mut vouch = Vouch::new(validity);
-    bus.answer_ticks(&key, |mut tick| {
-        let heartbeat = vouch.due(tick.time);
-        let (bus, areas, required, sources_key) = (
-            bus.clone(),
-            areas.clone(),
-            required.clone(),
-            sources_key.clone(),
-        );
-        async move {
-            tick.spawn_verdicts.clear();
-            let batches = bus
-                .lockstep_round_of::<AgentBatch>(&sources_key, &tick, &required, || true)
-                .await
-                .unwrap_or_default();
-            let changed = {
-                let mut guard = areas.lock().expect("areas lock");
-                let a = &mut *guard;
-                a.time = tick.time;
-                // Sources that are not in step publish as they please.
-                let mut changed = drop_silent(a, timeout);
-                for (source, batch) in &batches {
-                    if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
-                        bus.reject(&bus.keys().lockstep_agents(source), &problem);
-                        continue;
-                    }
-                    a.in_step.insert(source.clone());
-                    changed.extend(a.agents.update_source(
-                        &a.net.crosswalks,
-                        &mut a.occupancy,
-                        source,
-                        &poses(batch),
-                    ));
-                }
-                changed
-                    .into_iter()
-                    .map(|i| a.state(i, validity))
-                    .collect::<Vec<_>>()
-            };
-            publish(&bus, changed.clone()).await;
-            TickReport::Crosswalks { changed, heartbeat }
-        }
-    })
-    .await?;
-    Ok(())
-}
-
 /// `agents/*`: each source's full set of agents.
-async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
+async fn take_agents(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
     let keys = bus.keys().clone();
     let Ok(subscriber) = bus.subscribe(&keys.all_agents()).await else {
         tracing::error!("cannot subscribe to {}", keys.all_agents());
@@ -245,7 +243,7 @@ async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
         let source = Keys::last_chunk(&key).to_string();
         let poses = poses(&batch);
         let changed = {
-            let mut guard = areas.lock().expect("areas lock");
+            let mut guard = crosswalks.areas();
             let a = &mut *guard;
             if a.in_step.contains(&source) {
                 continue;
@@ -254,7 +252,10 @@ async fn take_agents(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
             let changed =
                 a.agents
                     .update_source(&a.net.crosswalks, &mut a.occupancy, &source, &poses);
-            changed.into_iter().map(|i| a.state(i, validity)).collect()
+            changed
+                .into_iter()
+                .map(|i| a.state(i, crosswalks.validity))
+                .collect()
         };
         publish(&bus, changed).await;
     }
@@ -281,39 +282,8 @@ fn drop_silent(a: &mut Areas, timeout: Duration) -> BTreeSet<usize> {
     changed
 }
 
-/// Heartbeats on the stepper's clock, and forgetting silent sources.
-async fn follow_clock(
-    bus: Arc<Bus>,
-    areas: Arc<Mutex<Areas>>,
-    validity: f64,
-    timeout: Duration,
-) -> Result<()> {
-    let keys = bus.keys().clone();
-    let clock = bus.subscribe(&keys.clock()).await?;
-    let heartbeat = bus
-        .publisher(keys.crosswalks_heartbeat(), Lane::Reliable)
-        .await?;
-    let mut vouch = Vouch::new(validity);
-    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-        let changed = {
-            let mut guard = areas.lock().expect("areas lock");
-            let a = &mut *guard;
-            a.time = c.time;
-            drop_silent(a, timeout)
-                .into_iter()
-                .map(|i| a.state(i, validity))
-                .collect::<Vec<_>>()
-        };
-        publish(&bus, changed).await;
-        if let Some(beat) = vouch.due(c.time) {
-            heartbeat.put(&beat).await?;
-        }
-    }
-    Ok(())
-}
-
 /// `crosswalks/occupancy/*` (current states) and `crosswalks/blocked_stop`.
-async fn answer_queries(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) {
+async fn answer_queries(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
     let keys = bus.keys().clone();
     let (Ok(states), Ok(blocked)) = (
         bus.queryable(&keys.occupancies()).await,
@@ -326,8 +296,8 @@ async fn answer_queries(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) 
         tokio::select! {
             Ok(query) = states.recv_async() => {
                 let all: Vec<CrosswalkOccupancy> = {
-                    let a = areas.lock().expect("areas lock");
-                    (0..a.net.crosswalks.len()).map(|i| a.state(i, validity)).collect()
+                    let a = crosswalks.areas();
+                    (0..a.net.crosswalks.len()).map(|i| a.state(i, crosswalks.validity)).collect()
                 };
                 for s in all {
                     bus.reply_at(&query, &keys.occupancy(&s.area), &s).await;
@@ -342,7 +312,7 @@ async fn answer_queries(bus: Arc<Bus>, areas: Arc<Mutex<Areas>>, validity: f64) 
                     continue;
                 }
                 let answer = {
-                    let a = areas.lock().expect("areas lock");
+                    let a = crosswalks.areas();
                     let hit = try_get_blocked_stop(
                         &a.net.crosswalks,
                         &a.occupancy,

@@ -3,15 +3,15 @@
 //! keeps every state valid, answers the current states and takes overrides.
 
 use std::process::ExitCode;
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Mutex, MutexGuard};
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Lane, Role, Vouch, runtime};
+use trafficmesh_bus::{Bus, Vouch, runtime};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_protocol::topics;
-use trafficmesh_protocol::wire::{Clock, LightOverride, LightState, TickReport};
-use trafficmesh_service::MapArgs;
+use trafficmesh_protocol::wire::{Clock, LightOverride, LightState, LockstepTick, TickReport};
+use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
 
@@ -24,17 +24,11 @@ use trafficmesh_sim::lights::{LightControl, Lights};
 )]
 struct Args {
     #[command(flatten)]
-    bus: BusArgs,
-    #[command(flatten)]
-    map: MapArgs,
+    service: ServiceArgs,
     /// Simulation seconds a published state stays valid without a heartbeat;
     /// after that the stepper counts the group red.
     #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
     validity: f64,
-    /// Advance on the stepper's lockstep questions instead of its clock
-    /// (answers on <cluster>/lockstep/step/lights; see the stepper's --lockstep).
-    #[arg(long)]
-    lockstep: bool,
 }
 
 struct Groups {
@@ -42,6 +36,7 @@ struct Groups {
     lights: Lights,
     time: f64,
     published: Vec<Option<LightColor>>,
+    vouch: Vouch,
 }
 
 impl Groups {
@@ -72,114 +67,97 @@ impl Groups {
     }
 }
 
-fn main() -> ExitCode {
-    runtime::main_with(|| run(Args::parse()))
+struct LightsService {
+    groups: Mutex<Groups>,
+    map: u64,
+    validity: f64,
 }
 
-fn run(args: Args) -> Result<()> {
-    if !(args.validity.is_finite() && args.validity > 0.0) {
-        bail!(
-            "--validity must be a positive number of seconds, got {}",
-            args.validity
-        );
+impl LightsService {
+    fn groups(&self) -> MutexGuard<'_, Groups> {
+        self.groups.lock().expect("lights lock")
     }
-    args.bus.keys()?;
-    let net = args.map.load()?;
-    runtime::check_key_names(
-        "light group",
-        net.light_groups.iter().map(|g| g.name.as_str()),
-    )?;
-    let lights = Lights::new(net.light_groups.iter().map(|g| g.program));
-    let n = net.light_groups.len();
-    let groups = Arc::new(Mutex::new(Groups {
-        net,
-        lights,
-        time: 0.0,
-        published: vec![None; n],
-    }));
-    let validity = args.validity;
-    runtime::tokio_runtime(1)?.block_on(async move {
-        let bus = Bus::open_service(&args.bus, Role::Member, "lights").await?;
-        let bus = Arc::new(bus);
-        let status = groups.clone();
-        let map = groups.lock().expect("lights lock").net.fingerprint();
-        trafficmesh_bus::check_map(&bus, map).await?;
-        trafficmesh_bus::serve_status(
-            bus.clone(),
-            Some(map),
-            Arc::new(move || {
-                let g = status.lock().expect("lights lock");
-                (g.time, serde_json::json!({ "groups": g.published.len() }))
-            }),
-        );
-        tokio::spawn(answer_states(bus.clone(), groups.clone(), validity));
-        tokio::spawn(take_overrides(bus.clone(), groups.clone(), validity));
-        let advance = async {
-            if args.lockstep {
-                follow_lockstep(bus.clone(), groups.clone(), validity).await
-            } else {
-                follow_clock(bus.clone(), groups.clone(), validity).await
-            }
+}
+
+fn main() -> ExitCode {
+    runtime::main_with(|| {
+        let args = Args::parse();
+        trafficmesh_service::positive_seconds("validity", args.validity)?;
+        let net = args.service.map.load()?;
+        runtime::check_key_names(
+            "light group",
+            net.light_groups.iter().map(|g| g.name.as_str()),
+        )?;
+        let groups = Groups {
+            lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
+            time: 0.0,
+            published: vec![None; net.light_groups.len()],
+            vouch: Vouch::new(args.validity),
+            net,
         };
-        tokio::select! {
-            r = advance => r?,
-            _ = runtime::shutdown_signal() => {}
-            e = trafficmesh_bus::another_map(&bus, map) => return Err(e.into()),
+        let service = LightsService {
+            map: groups.net.fingerprint(),
+            groups: Mutex::new(groups),
+            validity: args.validity,
+        };
+        trafficmesh_service::run(&args.service, service)
+    })
+}
+
+impl Service for LightsService {
+    const NAME: &'static str = "lights";
+    type Answer = TickReport;
+
+    fn map(&self) -> u64 {
+        self.map
+    }
+
+    fn status(&self) -> (f64, serde_json::Value) {
+        let g = self.groups();
+        (g.time, serde_json::json!({ "groups": g.published.len() }))
+    }
+
+    async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
+        tokio::spawn(answer_states(bus.clone(), self.clone()));
+        tokio::spawn(take_overrides(bus.clone(), self.clone()));
+        Ok(())
+    }
+
+    /// States that changed, and a heartbeat every validity/4.
+    async fn on_clock(&self, bus: &Arc<Bus>, c: Clock) -> Result<()> {
+        let (changed, beat) = {
+            let mut g = self.groups();
+            (g.advance(c.time, self.validity), g.vouch.due(c.time))
+        };
+        publish(bus, &changed).await;
+        if let Some(b) = beat {
+            bus.publish(&topics::LIGHTS_HEARTBEAT, &b).await?;
         }
         Ok(())
-    })
+    }
+
+    /// Each tick's changes go to the stepper with the answer, and on the
+    /// state keys for everyone else.
+    async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
+        let (changed, heartbeat) = {
+            let mut g = self.groups();
+            (g.advance(tick.time, self.validity), g.vouch.due(tick.time))
+        };
+        publish(bus, &changed).await;
+        TickReport::Lights { changed, heartbeat }
+    }
 }
 
-/// On every clock tick: states that changed, and a heartbeat every validity/4.
-async fn follow_clock(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
-    let keys = bus.keys().clone();
-    let clock = bus.subscribe(&keys.clock()).await?;
-    let heartbeat = bus
-        .publisher(keys.lights_heartbeat(), Lane::Reliable)
-        .await?;
-    let mut vouch = Vouch::new(validity);
-    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-        let (changed, beat) = {
-            let mut g = groups.lock().expect("lights lock");
-            (g.advance(c.time, validity), vouch.due(c.time))
-        };
-        for s in changed {
-            bus.publish_at(&topics::LIGHT_STATE, &s.group, &s).await?;
-        }
-        if let Some(b) = beat {
-            heartbeat.put(&b).await?;
+async fn publish(bus: &Bus, states: &[LightState]) {
+    for s in states {
+        if let Err(e) = bus.publish_at(&topics::LIGHT_STATE, &s.group, s).await {
+            tracing::warn!("cannot publish a light state: {e}");
         }
     }
-    Ok(())
-}
-
-/// In lockstep: each tick's changes go to the stepper with the answer, and
-/// on the state keys for everyone else.
-async fn follow_lockstep(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) -> Result<()> {
-    let key = bus.keys().lockstep_member("lights");
-    let mut vouch = Vouch::new(validity);
-    bus.answer_ticks(&key, |tick| {
-        let changed = groups
-            .lock()
-            .expect("lights lock")
-            .advance(tick.time, validity);
-        let heartbeat = vouch.due(tick.time);
-        let bus = bus.clone();
-        async move {
-            for s in &changed {
-                if let Err(e) = bus.publish_at(&topics::LIGHT_STATE, &s.group, s).await {
-                    tracing::warn!("cannot publish a light state: {e}");
-                }
-            }
-            TickReport::Lights { changed, heartbeat }
-        }
-    })
-    .await?;
-    Ok(())
 }
 
 /// `lights/state/*` as a query: every group's current state (late joiners).
-async fn answer_states(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) {
+async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
     let keys = bus.keys().clone();
     let Ok(queryable) = bus.queryable(&keys.light_states()).await else {
         tracing::error!("cannot declare {}", keys.light_states());
@@ -187,9 +165,9 @@ async fn answer_states(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64)
     };
     while let Ok(query) = queryable.recv_async().await {
         let states: Vec<LightState> = {
-            let g = groups.lock().expect("lights lock");
+            let g = lights.groups();
             (0..g.published.len())
-                .map(|i| g.state(i, validity))
+                .map(|i| g.state(i, lights.validity))
                 .collect()
         };
         for s in states {
@@ -205,7 +183,7 @@ async fn answer_states(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64)
 }
 
 /// `lights/override`: force a colour, set a program, or return to the map's.
-async fn take_overrides(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64) {
+async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
     let keys = bus.keys().clone();
     let Ok(queryable) = bus.queryable(&keys.lights_override()).await else {
         tracing::error!("cannot declare {}", keys.lights_override());
@@ -215,16 +193,11 @@ async fn take_overrides(bus: Arc<Bus>, groups: Arc<Mutex<Groups>>, validity: f64
         let Some(o) = bus.query_payload::<LightOverride>(&query).await else {
             continue;
         };
-        let result = {
-            let mut g = groups.lock().expect("lights lock");
-            apply_override(&mut g, &o, validity)
-        };
+        let result = apply_override(&mut lights.groups(), &o, lights.validity);
         match result {
             Ok(state) => {
                 tracing::info!("light group '{}' overridden: {:?}", o.group, state.color);
-                let _ = bus
-                    .publish_at(&topics::LIGHT_STATE, &state.group, &state)
-                    .await;
+                publish(&bus, std::slice::from_ref(&state)).await;
                 bus.reply(&query, &state).await;
             }
             Err(reason) => {

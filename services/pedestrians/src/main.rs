@@ -3,12 +3,14 @@
 //! `<cluster>/agents/pedestrians` ten times a simulated second.
 
 use std::process::ExitCode;
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use anyhow::{Result, bail};
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Lane, Role, runtime};
-use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock};
-use trafficmesh_service::MapArgs;
+use trafficmesh_bus::{Bus, runtime};
+use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LockstepTick};
+use trafficmesh_protocol::{Keys, topics};
+use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
 #[derive(Parser)]
@@ -20,9 +22,7 @@ use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 )]
 struct Args {
     #[command(flatten)]
-    bus: BusArgs,
-    #[command(flatten)]
-    map: MapArgs,
+    service: ServiceArgs,
     #[arg(long, default_value_t = 0)]
     seed: u64,
     /// Crossings started per minute on each crosswalk (0 = nobody crosses).
@@ -31,10 +31,17 @@ struct Args {
     /// Share of crossings made by cyclists, 0 to 1.
     #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
     cyclist_share: f64,
-    /// Step every tick on the crosswalks service's lockstep questions (answers
-    /// on <cluster>/lockstep/agents/pedestrians) instead of following the clock.
-    #[arg(long)]
-    lockstep: bool,
+}
+
+/// The walkers and the last time they were published.
+struct Walkers {
+    people: Pedestrians,
+    last: Option<f64>,
+}
+
+struct PedestriansService {
+    walkers: Mutex<Walkers>,
+    map: u64,
 }
 
 /// The walkers and cyclists as agent footprints at `time`.
@@ -58,80 +65,98 @@ fn batch(people: &Pedestrians, time: f64) -> AgentBatch {
 }
 
 fn main() -> ExitCode {
-    runtime::main_with(|| run(Args::parse()))
+    runtime::main_with(|| {
+        let args = Args::parse();
+        if !(args.per_minute.is_finite() && args.per_minute >= 0.0) {
+            bail!(
+                "--per-minute must be a number >= 0, got {}",
+                args.per_minute
+            );
+        }
+        if !(0.0..=1.0).contains(&args.cyclist_share) {
+            bail!(
+                "--cyclist-share must be between 0 and 1, got {}",
+                args.cyclist_share
+            );
+        }
+        let net = args.service.map.load()?;
+        let config = PedestrianConfig {
+            per_minute: args.per_minute,
+            cyclist_share: args.cyclist_share,
+            ..PedestrianConfig::default()
+        };
+        let service = PedestriansService {
+            walkers: Mutex::new(Walkers {
+                people: Pedestrians::new(&net.crosswalks, config, args.seed),
+                last: None,
+            }),
+            map: net.fingerprint(),
+        };
+        trafficmesh_service::run(&args.service, service)
+    })
 }
 
-fn run(args: Args) -> Result<()> {
-    if !(args.per_minute.is_finite() && args.per_minute >= 0.0) {
-        bail!(
-            "--per-minute must be a number >= 0, got {}",
-            args.per_minute
-        );
+impl PedestriansService {
+    fn walkers(&self) -> MutexGuard<'_, Walkers> {
+        self.walkers.lock().expect("walkers lock")
     }
-    if !(0.0..=1.0).contains(&args.cyclist_share) {
-        bail!(
-            "--cyclist-share must be between 0 and 1, got {}",
-            args.cyclist_share
-        );
+}
+
+impl Service for PedestriansService {
+    const NAME: &'static str = "pedestrians";
+    type Answer = AgentBatch;
+
+    fn map(&self) -> u64 {
+        self.map
     }
-    args.bus.keys()?;
-    let net = args.map.load()?;
-    let config = PedestrianConfig {
-        per_minute: args.per_minute,
-        cyclist_share: args.cyclist_share,
-        ..PedestrianConfig::default()
-    };
-    let mut people = Pedestrians::new(&net.crosswalks, config, args.seed);
-    runtime::tokio_runtime(1)?.block_on(async move {
-        let bus = Bus::open_service(&args.bus, Role::Member, "pedestrians").await?;
-        let keys = bus.keys().clone();
-        let out = bus
-            .publisher(keys.agents("pedestrians"), Lane::Reliable)
-            .await?;
-        let mut last: Option<f64> = None;
-        let run = async {
-            if args.lockstep {
-                // Every tick, as a world that runs its own walkers steps them;
-                // the agents also go out ten times a simulated second for others.
-                let key = keys.lockstep_agents("pedestrians");
-                bus.answer_ticks(&key, |tick| {
-                    people.step(tick.time, tick.dt);
-                    let agents = batch(&people, tick.time);
-                    let due = last.is_none_or(|t| tick.time - t >= 0.1);
-                    if due {
-                        last = Some(tick.time);
-                    }
-                    let out = &out;
-                    async move {
-                        if due && let Err(e) = out.put(&agents).await {
-                            tracing::warn!("cannot publish the agents: {e}");
-                        }
-                        agents
-                    }
-                })
-                .await?;
-                return anyhow::Ok(());
+
+    fn status(&self) -> (f64, serde_json::Value) {
+        let w = self.walkers();
+        let agents = w.people.agents().len();
+        (
+            w.last.unwrap_or(0.0),
+            serde_json::json!({ "agents": agents }),
+        )
+    }
+
+    /// Ten updates per simulated second are plenty for walkers.
+    async fn on_clock(&self, bus: &Arc<Bus>, c: Clock) -> Result<()> {
+        let agents = {
+            let mut w = self.walkers();
+            let Some(prev) = w.last else {
+                w.last = Some(c.time);
+                return Ok(());
+            };
+            if !(c.time.is_finite() && c.time - prev >= 0.1) {
+                return Ok(());
             }
-            let clock = bus.subscribe(&keys.clock()).await?;
-            while let Some(c) = bus.next_latest::<Clock>(&clock).await {
-                let Some(prev) = last else {
-                    last = Some(c.time);
-                    continue;
-                };
-                // Ten updates per simulated second are plenty for walkers.
-                if !(c.time.is_finite() && c.time - prev >= 0.1) {
-                    continue;
-                }
-                people.step(c.time, c.time - prev);
-                last = Some(c.time);
-                out.put(&batch(&people, c.time)).await?;
-            }
-            anyhow::Ok(())
+            w.people.step(c.time, c.time - prev);
+            w.last = Some(c.time);
+            batch(&w.people, c.time)
         };
-        tokio::select! {
-            r = run => r?,
-            _ = runtime::shutdown_signal() => {}
-        }
+        bus.publish_at(&topics::AGENTS, Self::NAME, &agents).await?;
         Ok(())
-    })
+    }
+
+    /// Every tick, as a world that runs its own walkers steps them; the
+    /// agents also go out ten times a simulated second for others.
+    async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> AgentBatch {
+        let (agents, due) = {
+            let mut w = self.walkers();
+            w.people.step(tick.time, tick.dt);
+            let due = w.last.is_none_or(|t| tick.time - t >= 0.1);
+            if due {
+                w.last = Some(tick.time);
+            }
+            (batch(&w.people, tick.time), due)
+        };
+        if due && let Err(e) = bus.publish_at(&topics::AGENTS, Self::NAME, &agents).await {
+            tracing::warn!("cannot publish the agents: {e}");
+        }
+        agents
+    }
+
+    fn lockstep_key(keys: &Keys) -> String {
+        keys.lockstep_agents(Self::NAME)
+    }
 }

@@ -10,12 +10,15 @@ mod subscriptions;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
-use std::sync::{Arc, Mutex};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, Mutex, OnceLock};
 
 use anyhow::Result;
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
-use trafficmesh_service::MapArgs;
+use trafficmesh_bus::{Bus, runtime};
+use trafficmesh_protocol::wire::{Clock, LockstepTick, TickReport};
+use trafficmesh_service::{Service, ServiceArgs};
+use trafficmesh_sim::spawn::SpawnRequest;
 
 use crate::state::SpawnerState;
 
@@ -28,9 +31,7 @@ use crate::state::SpawnerState;
 )]
 struct Args {
     #[command(flatten)]
-    bus: BusArgs,
-    #[command(flatten)]
-    map: MapArgs,
+    service: ServiceArgs,
     /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
     #[arg(long, conflicts_with = "sumocfg")]
     routes: Option<PathBuf>,
@@ -51,16 +52,19 @@ struct Args {
     /// Where the branch-decision CSV is written on shutdown.
     #[arg(long, default_value = "traffic_branch_decisions.csv")]
     branch_csv: PathBuf,
-    /// Plan on the stepper's lockstep questions (answers on
-    /// <cluster>/lockstep/step/spawner) instead of its clock.
-    #[arg(long)]
-    lockstep: bool,
 }
 
 pub struct Spawner {
-    pub bus: Arc<Bus>,
+    bus: OnceLock<Arc<Bus>>,
     pub state: Mutex<SpawnerState>,
     pub spawn_config_path: PathBuf,
+    branch_csv_path: PathBuf,
+    map: u64,
+    /// In lockstep: the last orders and the time they were planned at,
+    /// booked when the next question brings their verdicts.
+    pending: Mutex<(Vec<SpawnRequest>, f64)>,
+    /// A failed spawn query was logged; quiet until one succeeds.
+    warned: AtomicBool,
 }
 
 impl Spawner {
@@ -68,11 +72,18 @@ impl Spawner {
         self.state.lock().expect("spawner state lock")
     }
 
+    /// The bus, set when the service joins it (before any task starts).
+    pub fn bus(&self) -> &Arc<Bus> {
+        self.bus
+            .get()
+            .expect("the bus is set before any task starts")
+    }
+
     /// Publishes the config in force, for the stepper's branch choices.
     pub async fn publish_config(&self) {
         let config = self.state().config.clone();
         if let Err(e) = self
-            .bus
+            .bus()
             .publish(&trafficmesh_protocol::topics::SPAWN_CONFIG, &config)
             .await
         {
@@ -82,22 +93,25 @@ impl Spawner {
 }
 
 fn main() -> ExitCode {
-    runtime::main_with(|| run(Args::parse()))
+    runtime::main_with(|| {
+        let args = Args::parse();
+        let service = build(&args)?;
+        trafficmesh_service::run(&args.service, service)
+    })
 }
 
-fn run(args: Args) -> Result<()> {
-    args.bus.keys()?;
-    let (net, warnings) = args
-        .map
-        .load_with_routes(args.routes.as_deref(), args.seed)?;
+fn build(args: &Args) -> Result<Spawner> {
+    let map_args = &args.service.map;
+    let (net, warnings) = map_args.load_with_routes(args.routes.as_deref(), args.seed)?;
     for w in warnings {
         tracing::warn!("map and demand: {w}");
     }
-    let timetable = args.routes.is_some() || args.map.sumocfg.is_some();
+    let timetable = args.routes.is_some() || map_args.sumocfg.is_some();
     let max_vehicles = args
         .max_vehicles
         .unwrap_or(trafficmesh_sim::world::default_max_vehicles(timetable));
     let spawn_distance_to_ego = args.spawn_distance.checked().map_err(anyhow::Error::msg)?;
+    let map = net.fingerprint();
     let mut state = SpawnerState::new(net, args.seed, max_vehicles);
     state.spawn_distance_to_ego = spawn_distance_to_ego;
     if args.spawn_config.exists() {
@@ -107,62 +121,75 @@ fn run(args: Args) -> Result<()> {
         })?;
         tracing::info!("loaded spawn config {}", args.spawn_config.display());
     }
-    let rt = runtime::tokio_runtime(2)?;
-    rt.block_on(async move {
-        let bus = Bus::open_service(&args.bus, Role::Member, "spawner").await?;
-        let spawner = Arc::new(Spawner {
-            bus: Arc::new(bus),
-            state: Mutex::new(state),
-            spawn_config_path: args.spawn_config.clone(),
-        });
-        let map = spawner.state().net.fingerprint();
-        trafficmesh_bus::check_map(&spawner.bus, map).await?;
-        subscriptions::start(spawner.clone()).await?;
-        queries::start(spawner.clone()).await?;
-        let status = spawner.clone();
-        trafficmesh_bus::serve_status(
-            spawner.bus.clone(),
-            Some(map),
-            Arc::new(move || {
-                let s = status.state();
-                let st = s.manager.stats();
-                (
-                    s.time,
-                    serde_json::json!({
-                        "max_vehicles": s.max_vehicles,
-                        "spawn_distance_to_ego": s.spawn_distance_to_ego,
-                        "spawned": st.spawned,
-                        // A timetable's vehicles due and still waiting for room.
-                        "insertion_backlog": s.manager.backlog(),
-                        "rejected": {
-                            "too_close_to_ego": st.too_close_to_ego,
-                            "rate_limited": st.rate_limited,
-                            "lost_priority": st.lost_priority,
-                            "not_spawnable": st.not_spawnable,
-                            "max_vehicles": st.max_vehicles,
-                        },
-                        "branch_decisions": s.stats.total(),
-                    }),
-                )
+    Ok(Spawner {
+        bus: OnceLock::new(),
+        state: Mutex::new(state),
+        spawn_config_path: args.spawn_config.clone(),
+        branch_csv_path: args.branch_csv.clone(),
+        map,
+        pending: Mutex::new((Vec::new(), 0.0)),
+        warned: AtomicBool::new(false),
+    })
+}
+
+impl Service for Spawner {
+    const NAME: &'static str = "spawner";
+    const WORKERS: usize = 2;
+    type Answer = TickReport;
+
+    fn map(&self) -> u64 {
+        self.map
+    }
+
+    fn status(&self) -> (f64, serde_json::Value) {
+        let s = self.state();
+        let st = s.manager.stats();
+        (
+            s.time,
+            serde_json::json!({
+                "max_vehicles": s.max_vehicles,
+                "spawn_distance_to_ego": s.spawn_distance_to_ego,
+                "spawned": st.spawned,
+                // A timetable's vehicles due and still waiting for room.
+                "insertion_backlog": s.manager.backlog(),
+                "rejected": {
+                    "too_close_to_ego": st.too_close_to_ego,
+                    "rate_limited": st.rate_limited,
+                    "lost_priority": st.lost_priority,
+                    "not_spawnable": st.not_spawnable,
+                    "max_vehicles": st.max_vehicles,
+                },
+                "branch_decisions": s.stats.total(),
             }),
-        );
-        spawner.publish_config().await;
-        if args.lockstep {
-            tokio::spawn(spawn_loop::run_in_step(spawner.clone()));
-        } else {
-            tokio::spawn(spawn_loop::run(spawner.clone()));
-        }
-        tokio::select! {
-            _ = runtime::shutdown_signal() => {}
-            e = trafficmesh_bus::another_map(&spawner.bus, map) => return Err(e.into()),
-        }
-        let csv = spawner.state().branch_csv();
+        )
+    }
+
+    async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
+        let _ = self.bus.set(bus.clone());
+        subscriptions::start(self.clone()).await?;
+        queries::start(self.clone()).await?;
+        self.publish_config().await;
+        Ok(())
+    }
+
+    async fn on_clock(&self, _bus: &Arc<Bus>, clock: Clock) -> Result<()> {
+        spawn_loop::on_clock(self, clock).await;
+        Ok(())
+    }
+
+    async fn on_tick(&self, _bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
+        spawn_loop::on_tick(self, tick).await
+    }
+
+    /// The branch-decision CSV, written whole or not at all.
+    fn stop(&self) -> Result<()> {
+        let csv = self.state().branch_csv();
         let rows = csv.lines().count().saturating_sub(1);
-        trafficmesh_maps::write_atomic(&args.branch_csv, csv.as_bytes())?;
+        trafficmesh_maps::write_atomic(&self.branch_csv_path, csv.as_bytes())?;
         tracing::info!(
             "wrote {rows} branch-decision rows to {}",
-            args.branch_csv.display()
+            self.branch_csv_path.display()
         );
         Ok(())
-    })
+    }
 }

@@ -50,7 +50,7 @@ impl Command {
 }
 
 pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
-    let bus = spawner.bus.clone();
+    let bus = spawner.bus().clone();
     let keys = bus.keys().clone();
     for command in Command::ALL {
         let queryable = bus.queryable(&command.key(&keys)).await?;
@@ -67,7 +67,7 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
 }
 
 async fn answer(s: &Spawner, command: Command, query: &Query) {
-    let bus = &s.bus;
+    let bus = s.bus();
     match command {
         Command::Config => {
             let config = s.state().config.clone();

@@ -9,18 +9,18 @@ use trafficmesh_protocol::wire::{EgoPose, Event, EventBatch, ProposalBatch};
 use crate::Spawner;
 
 pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
-    let bus = spawner.bus.clone();
+    let bus = spawner.bus().clone();
     let keys = bus.keys().clone();
 
     let ego = bus.subscribe(&keys.ego()).await?;
     let s = spawner.clone();
     tokio::spawn(async move {
         while let Ok(sample) = ego.recv_async().await {
-            let Some(pose) = s.bus.decode::<EgoPose>(&sample) else {
+            let Some(pose) = s.bus().decode::<EgoPose>(&sample) else {
                 continue;
             };
             if let Some(problem) = pose.problem() {
-                s.bus.reject(sample.key_expr().as_str(), &problem);
+                s.bus().reject(sample.key_expr().as_str(), &problem);
                 continue;
             }
             s.state().ego = Some(trafficmesh_service::ego_of(&pose));
@@ -31,7 +31,7 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     let s = spawner.clone();
     tokio::spawn(async move {
         while let Ok(sample) = events.recv_async().await {
-            let Some(batch) = s.bus.decode::<EventBatch>(&sample) else {
+            let Some(batch) = s.bus().decode::<EventBatch>(&sample) else {
                 continue;
             };
             let mut state = s.state();
@@ -47,7 +47,7 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
                     && let Err(problem) =
                         state.record_branch(&from, &to, &mode, configured_weight, probability)
                 {
-                    s.bus.reject(sample.key_expr().as_str(), &problem);
+                    s.bus().reject(sample.key_expr().as_str(), &problem);
                 }
             }
         }
@@ -58,14 +58,14 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     tokio::spawn(async move {
         while let Ok(sample) = proposals.recv_async().await {
             let key = sample.key_expr().as_str();
-            let Some(batch) = s.bus.decode::<ProposalBatch>(&sample) else {
+            let Some(batch) = s.bus().decode::<ProposalBatch>(&sample) else {
                 continue;
             };
             let Some(name) = Keys::simulator_of(key) else {
                 continue;
             };
             if let Err(problem) = s.state().set_proposals(name, batch) {
-                s.bus.reject(key, &problem);
+                s.bus().reject(key, &problem);
             }
         }
     });

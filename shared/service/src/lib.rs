@@ -1,10 +1,13 @@
 //! What every trafficmesh binary shares at its edge: the map and vehicle
-//! flags (one flag set, one help text) and the loading of a map file, any
-//! format, into the simulation's lane network.
+//! flags (one flag set, one help text), the loading of a map file, any
+//! format, into the simulation's lane network, and the skeleton of a cluster
+//! service ([`Service`], [`run`]).
 
 pub mod args;
+mod kit;
 
 pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
+pub use kit::{Service, ServiceArgs, positive_seconds, run};
 
 use trafficmesh_maps::FileError;
 use trafficmesh_protocol::wire::EgoPose;
