@@ -74,15 +74,9 @@ impl SpawnerState {
         let orders = requests
             .iter()
             .map(|r| SpawnOrder {
-                lane: self.net.lane(r.lane).name.clone(),
+                lane: r.lane,
                 kind: self.net.kinds[r.kind].name.clone(),
-                route: r.route.as_ref().map(|route| {
-                    route
-                        .lanes
-                        .iter()
-                        .map(|&l| self.net.lane(l).name.clone())
-                        .collect()
-                }),
+                route: r.route.as_ref().map(|route| route.lanes.to_vec()),
                 leave_at_route_end: r.route.as_ref().is_some_and(|route| route.leave_at_end),
                 kind_def: Some(&self.net.kinds[r.kind])
                     .filter(|k| trafficmesh_model::builtin_kind(&k.name).is_none())
@@ -181,19 +175,20 @@ impl SpawnerState {
         Ok(())
     }
 
-    /// A branch decision the stepper reported.
+    /// A branch decision the stepper reported, its lanes by index.
     pub fn record_branch(
         &mut self,
-        from: &str,
-        to: &str,
+        from: u32,
+        to: u32,
         mode: &str,
         configured_weight: f64,
         probability: f64,
     ) -> Result<(), String> {
-        let lane = |n: &str| {
-            self.net
-                .lane_id(n)
-                .ok_or_else(|| format!("unknown lane '{n}'"))
+        let lanes = self.net.lanes.len();
+        let lane = |l: u32| {
+            ((l as usize) < lanes)
+                .then_some(l)
+                .ok_or_else(|| format!("unknown lane {l} (the map has {lanes})"))
         };
         let choice = BranchChoice {
             from: lane(from)?,

@@ -37,15 +37,20 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
             let mut state = s.state();
             for e in batch.events {
                 if let Event::BranchDecision {
-                    from,
-                    to,
+                    from_lane,
+                    to_lane,
                     mode,
                     configured_weight,
                     probability,
                     ..
                 } = e
-                    && let Err(problem) =
-                        state.record_branch(&from, &to, &mode, configured_weight, probability)
+                    && let Err(problem) = state.record_branch(
+                        from_lane,
+                        to_lane,
+                        &mode,
+                        configured_weight,
+                        probability,
+                    )
                 {
                     s.bus().reject(sample.key_expr().as_str(), &problem);
                 }

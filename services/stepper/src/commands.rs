@@ -193,9 +193,9 @@ fn json<T: serde::Serialize>(value: T) -> serde_json::Value {
     serde_json::to_value(value).expect("wire types serialise")
 }
 
-/// Resolves each order's names and queues the valid ones for the next
-/// tick's spawn phase (the final IsSpawnable and max-count check, in order);
-/// an order that names an unknown lane or kind gets its verdict at once.
+/// Checks each order and queues the valid ones for the next tick's spawn
+/// phase (the final IsSpawnable and max-count check, in order); an order
+/// with an unknown lane or kind gets its verdict at once.
 fn queue_spawns(world: &mut World, batch: SpawnBatch) -> Vec<Option<SpawnVerdict>> {
     batch
         .orders
@@ -217,10 +217,13 @@ fn resolve_order(
     order: SpawnOrder,
     max_vehicles: usize,
 ) -> Result<QueuedSpawn, String> {
-    let lane = world
-        .network()
-        .lane_id(&order.lane)
-        .ok_or_else(|| format!("unknown lane '{}'", order.lane))?;
+    let lanes = world.network().lanes.len();
+    let known_lane = |l: u32| {
+        ((l as usize) < lanes)
+            .then_some(l)
+            .ok_or_else(|| format!("unknown lane {l} (the map has {lanes})"))
+    };
+    let lane = known_lane(order.lane)?;
     let known = match order.kind_def {
         Some(def) if def.name == order.kind => Some(world.add_vehicle_kind(def)),
         _ => world.kind_index(&order.kind),
@@ -228,18 +231,13 @@ fn resolve_order(
     let kind = known.ok_or_else(|| format!("unknown vehicle kind '{}'", order.kind))?;
     let route = match order.route {
         None => None,
-        Some(names) => {
-            let lanes = names
-                .iter()
-                .map(|n| {
-                    world
-                        .network()
-                        .lane_id(n)
-                        .ok_or_else(|| format!("unknown route lane '{n}'"))
-                })
+        Some(route) => {
+            let route = route
+                .into_iter()
+                .map(known_lane)
                 .collect::<Result<Vec<_>, _>>()?;
             Some(trafficmesh_sim::spawn::Route {
-                lanes: lanes.into(),
+                lanes: route.into(),
                 leave_at_end: order.leave_at_route_end,
                 depart: order.depart,
             })

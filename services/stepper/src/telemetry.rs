@@ -113,6 +113,8 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
                 id,
                 from: lane(choice.from),
                 to: lane(choice.to),
+                from_lane: choice.from,
+                to_lane: choice.to,
                 mode: choice.mode.as_str().into(),
                 configured_weight: choice.configured_weight,
                 probability: choice.probability,

@@ -10,13 +10,17 @@ pub struct SpawnBatch {
     pub orders: Vec<SpawnOrder>,
 }
 
+/// One spawn. Lanes go by their index in the map, as on the whole bus:
+/// every service reports its map's fingerprint, and one on another map
+/// stops instead of naming other lanes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SpawnOrder {
-    pub lane: String,
+    pub lane: u32,
     pub kind: String,
+    /// The lanes of its way, the spawn lane first.
     #[serde(default)]
-    pub route: Option<Vec<String>>,
+    pub route: Option<Vec<u32>>,
     /// Leave the map at the route's end (a SUMO demand) instead of driving on.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub leave_at_route_end: bool,

@@ -96,10 +96,14 @@ pub enum Event {
         vehicle: String,
         area: String,
     },
+    /// `from` and `to` by name, for readers; `from_lane` and `to_lane` by
+    /// index, for the spawner's statistics.
     BranchDecision {
         id: u64,
         from: String,
         to: String,
+        from_lane: u32,
+        to_lane: u32,
         mode: String,
         configured_weight: f64,
         probability: f64,
