@@ -9,16 +9,16 @@ mod problem;
 mod token;
 mod view;
 
-use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::Duration;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
 use trafficmesh_service::MapArgs;
+use trafficmesh_service::settings::AdminSettings;
 
 #[derive(Parser)]
 #[command(
@@ -34,27 +34,8 @@ struct Args {
     bus: BusArgs,
     #[command(flatten)]
     map: MapArgs,
-    /// HTTP address to listen on (`--listen` is the Zenoh one).
-    #[arg(long, default_value = "127.0.0.1:8080")]
-    bind: SocketAddr,
-    /// Bearer token for mutating endpoints.
-    #[arg(long, env = "TRAFFICMESH_ADMIN_TOKEN", hide_env_values = true)]
-    token: Option<String>,
-    /// Where the token is kept when not given (default ~/.config/trafficmesh/admin.token).
-    #[arg(long, env = "TRAFFICMESH_ADMIN_TOKEN_FILE")]
-    token_file: Option<PathBuf>,
-    /// Largest request body accepted, bytes.
-    #[arg(long, default_value_t = 1 << 20)]
-    max_body_bytes: usize,
-    /// Seconds before a request is answered 408.
-    #[arg(long, default_value_t = 10.0)]
-    request_timeout: f64,
-    /// Seconds a request waits for a service's answer on the bus before 503.
-    #[arg(long, default_value_t = 3.0)]
-    bus_timeout: f64,
-    /// Origin allowed to call the API from a browser page elsewhere (repeatable). None: CORS off.
-    #[arg(long = "cors-origin")]
-    cors_origins: Vec<String>,
+    #[command(flatten)]
+    settings: AdminSettings,
     /// Services whose absence makes the cluster degraded.
     #[arg(
         long,
@@ -68,13 +49,6 @@ fn main() -> ExitCode {
     runtime::main_with(|| run(Args::parse()))
 }
 
-fn seconds(name: &str, value: f64) -> Result<Duration> {
-    if !(value.is_finite() && value > 0.0) {
-        bail!("{name} must be a positive number of seconds, got {value}");
-    }
-    Ok(Duration::from_secs_f64(value))
-}
-
 fn default_token_file() -> PathBuf {
     let home = std::env::var_os("HOME")
         .map(PathBuf::from)
@@ -83,15 +57,17 @@ fn default_token_file() -> PathBuf {
 }
 
 fn run(args: Args) -> Result<()> {
-    let request_timeout = seconds("--request-timeout", args.request_timeout)?;
-    let bus_timeout = seconds("--bus-timeout", args.bus_timeout)?;
-    if args.max_body_bytes == 0 {
-        bail!("--max-body-bytes must be positive");
-    }
+    let settings = &args.settings;
+    trafficmesh_service::check_flags(settings)?;
+    let request_timeout = Duration::from_secs_f64(settings.request_timeout);
+    let bus_timeout = Duration::from_secs_f64(settings.bus_timeout);
     args.bus.keys()?;
     let net = args.map.load()?;
-    let token_file = args.token_file.clone().unwrap_or_else(default_token_file);
-    let (token, source) = token::resolve(args.token.clone(), &token_file)?;
+    let token_file = settings
+        .token_file
+        .clone()
+        .unwrap_or_else(default_token_file);
+    let (token, source) = token::resolve(settings.token.clone(), &token_file)?;
     if source == token::Source::Generated {
         // The one time the token is shown; it is never logged.
         println!(
@@ -107,7 +83,7 @@ fn run(args: Args) -> Result<()> {
         let view = Arc::new(view::ClusterView::default());
         view.follow(bus.clone(), net.light_groups.len(), net.crosswalks.len())
             .await?;
-        let (status_view, bind) = (view.clone(), args.bind.to_string());
+        let (status_view, bind) = (view.clone(), settings.listen.to_string());
         trafficmesh_bus::serve_status(
             bus.clone(),
             Some(map),
@@ -127,14 +103,14 @@ fn run(args: Args) -> Result<()> {
             bus_timeout,
         });
         let limits = api::Limits {
-            max_body_bytes: args.max_body_bytes,
+            max_body_bytes: settings.max_body_bytes,
             request_timeout,
-            cors_origins: args.cors_origins.clone(),
+            cors_origins: settings.cors_origins.clone(),
         };
         let router = api::router(app, &limits);
-        let listener = tokio::net::TcpListener::bind(args.bind)
+        let listener = tokio::net::TcpListener::bind(settings.listen)
             .await
-            .with_context(|| format!("cannot listen on {}", args.bind))?;
+            .with_context(|| format!("cannot listen on {}", settings.listen))?;
         tracing::info!(
             "admin on http://{}: live map at /, API docs at /swagger-ui, metrics at /metrics",
             listener.local_addr()?

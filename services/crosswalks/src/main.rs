@@ -18,6 +18,7 @@ use trafficmesh_protocol::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, LockstepTick,
     TickReport,
 };
+use trafficmesh_service::settings::CrosswalksSettings;
 use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::crosswalk::{Occupancy, OccupantType, try_get_blocked_stop};
@@ -33,13 +34,8 @@ use trafficmesh_sim::crosswalk_agents::{AgentOccupancy, AgentPose};
 struct Args {
     #[command(flatten)]
     service: ServiceArgs,
-    /// Simulation seconds published occupancy stays valid without a heartbeat;
-    /// after that the stepper counts every crosswalk blocked.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    validity: f64,
-    /// Wall-clock seconds after which a silent agent source is forgotten.
-    #[arg(long, default_value_t = 3.0, allow_negative_numbers = true)]
-    source_timeout: f64,
+    #[command(flatten)]
+    settings: CrosswalksSettings,
     /// With --lockstep: agent sources no tick is answered without,
     /// comma-separated (e.g. pedestrians); each tick asks every source in
     /// step (<cluster>/lockstep/agents/*) for its agents.
@@ -90,8 +86,7 @@ impl Crosswalks {
 fn main() -> ExitCode {
     runtime::main_with(|| {
         let args = Args::parse();
-        trafficmesh_service::positive_seconds("validity", args.validity)?;
-        trafficmesh_service::positive_seconds("source-timeout", args.source_timeout)?;
+        trafficmesh_service::check_flags(&args.settings)?;
         let net = args.service.map.load()?;
         runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
         let areas = Areas {
@@ -100,14 +95,14 @@ fn main() -> ExitCode {
             last_heard: BTreeMap::new(),
             in_step: BTreeSet::new(),
             time: 0.0,
-            vouch: Vouch::new(args.validity),
+            vouch: Vouch::new(args.settings.validity),
             net,
         };
         let service = Crosswalks {
             map: areas.net.fingerprint(),
             areas: Mutex::new(areas),
-            validity: args.validity,
-            source_timeout: Duration::from_secs_f64(args.source_timeout),
+            validity: args.settings.validity,
+            source_timeout: Duration::from_secs_f64(args.settings.source_timeout),
             required_sources: args.lockstep_sources,
         };
         trafficmesh_service::run(&args.service, service)

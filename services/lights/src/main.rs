@@ -11,6 +11,7 @@ use trafficmesh_bus::{Bus, Vouch, runtime};
 use trafficmesh_model::{LightColor, LightProgram};
 use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{Clock, LightOverride, LightState, LockstepTick, TickReport};
+use trafficmesh_service::settings::LightsSettings;
 use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::lights::{LightControl, Lights};
@@ -25,10 +26,8 @@ use trafficmesh_sim::lights::{LightControl, Lights};
 struct Args {
     #[command(flatten)]
     service: ServiceArgs,
-    /// Simulation seconds a published state stays valid without a heartbeat;
-    /// after that the stepper counts the group red.
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    validity: f64,
+    #[command(flatten)]
+    settings: LightsSettings,
 }
 
 struct Groups {
@@ -82,7 +81,7 @@ impl LightsService {
 fn main() -> ExitCode {
     runtime::main_with(|| {
         let args = Args::parse();
-        trafficmesh_service::positive_seconds("validity", args.validity)?;
+        trafficmesh_service::check_flags(&args.settings)?;
         let net = args.service.map.load()?;
         runtime::check_key_names(
             "light group",
@@ -92,13 +91,13 @@ fn main() -> ExitCode {
             lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
             time: 0.0,
             published: vec![None; net.light_groups.len()],
-            vouch: Vouch::new(args.validity),
+            vouch: Vouch::new(args.settings.validity),
             net,
         };
         let service = LightsService {
             map: groups.net.fingerprint(),
             groups: Mutex::new(groups),
-            validity: args.validity,
+            validity: args.settings.validity,
         };
         trafficmesh_service::run(&args.service, service)
     })

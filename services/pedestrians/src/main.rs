@@ -5,11 +5,12 @@
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex, MutexGuard};
 
-use anyhow::{Result, bail};
+use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
 use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LockstepTick};
 use trafficmesh_protocol::{Keys, topics};
+use trafficmesh_service::settings::PedestriansSettings;
 use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
@@ -25,12 +26,8 @@ struct Args {
     service: ServiceArgs,
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Crossings started per minute on each crosswalk (0 = nobody crosses).
-    #[arg(long, default_value_t = 2.0, allow_negative_numbers = true)]
-    per_minute: f64,
-    /// Share of crossings made by cyclists, 0 to 1.
-    #[arg(long, default_value_t = 0.2, allow_negative_numbers = true)]
-    cyclist_share: f64,
+    #[command(flatten)]
+    settings: PedestriansSettings,
 }
 
 /// The walkers and the last time they were published.
@@ -67,22 +64,11 @@ fn batch(people: &Pedestrians, time: f64) -> AgentBatch {
 fn main() -> ExitCode {
     runtime::main_with(|| {
         let args = Args::parse();
-        if !(args.per_minute.is_finite() && args.per_minute >= 0.0) {
-            bail!(
-                "--per-minute must be a number >= 0, got {}",
-                args.per_minute
-            );
-        }
-        if !(0.0..=1.0).contains(&args.cyclist_share) {
-            bail!(
-                "--cyclist-share must be between 0 and 1, got {}",
-                args.cyclist_share
-            );
-        }
+        trafficmesh_service::check_flags(&args.settings)?;
         let net = args.service.map.load()?;
         let config = PedestrianConfig {
-            per_minute: args.per_minute,
-            cyclist_share: args.cyclist_share,
+            per_minute: args.settings.per_minute,
+            cyclist_share: args.settings.cyclist_share,
             ..PedestrianConfig::default()
         };
         let service = PedestriansService {

@@ -17,6 +17,7 @@ use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
 use trafficmesh_protocol::wire::{Clock, LockstepTick, TickReport};
+use trafficmesh_service::settings::SpawnerSettings;
 use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::spawn::SpawnRequest;
 
@@ -32,26 +33,11 @@ use crate::state::SpawnerState;
 struct Args {
     #[command(flatten)]
     service: ServiceArgs,
-    /// SUMO route file (`.rou.xml`): its vehicles and flows replace the map's simulators.
-    #[arg(long, conflicts_with = "sumocfg")]
-    routes: Option<PathBuf>,
     /// Random seed of the simulators.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// maxVehicleCount: NPC vehicles alive at once. Default: the AWSIM
-    /// reference's 40, and no cap (a million) with --routes or --sumocfg, so
-    /// that a timetable's vehicles all depart, as in SUMO.
-    #[arg(long)]
-    max_vehicles: Option<usize>,
     #[command(flatten)]
-    spawn_distance: trafficmesh_service::SpawnDistanceArgs,
-    /// Spawn config (the AWSIM reference's traffic_spawn.json): loaded at start if it
-    /// exists, and the file that save and load use.
-    #[arg(long, default_value = "traffic_spawn.json")]
-    spawn_config: PathBuf,
-    /// Where the branch-decision CSV is written on shutdown.
-    #[arg(long, default_value = "traffic_branch_decisions.csv")]
-    branch_csv: PathBuf,
+    settings: SpawnerSettings,
 }
 
 pub struct Spawner {
@@ -101,31 +87,32 @@ fn main() -> ExitCode {
 }
 
 fn build(args: &Args) -> Result<Spawner> {
-    let map_args = &args.service.map;
-    let (net, warnings) = map_args.load_with_routes(args.routes.as_deref(), args.seed)?;
+    trafficmesh_service::check_flags(&args.settings)?;
+    let (map_args, settings) = (&args.service.map, &args.settings);
+    let (net, warnings) = map_args.load_with_routes(settings.routes.as_deref(), args.seed)?;
     for w in warnings {
         tracing::warn!("map and demand: {w}");
     }
-    let timetable = args.routes.is_some() || map_args.sumocfg.is_some();
-    let max_vehicles = args
+    let timetable = settings.routes.is_some() || map_args.sumocfg.is_some();
+    let max_vehicles = settings
         .max_vehicles
         .unwrap_or(trafficmesh_sim::world::default_max_vehicles(timetable));
-    let spawn_distance_to_ego = args.spawn_distance.checked().map_err(anyhow::Error::msg)?;
     let map = net.fingerprint();
     let mut state = SpawnerState::new(net, args.seed, max_vehicles);
-    state.spawn_distance_to_ego = spawn_distance_to_ego;
-    if args.spawn_config.exists() {
-        let config = trafficmesh_maps::load_spawn_config(&args.spawn_config)?;
-        state.set_config(config).map_err(|problems| {
-            anyhow::anyhow!("{}: {}", args.spawn_config.display(), problems.join("; "))
-        })?;
-        tracing::info!("loaded spawn config {}", args.spawn_config.display());
+    state.spawn_distance_to_ego = settings.spawn_distance_to_ego;
+    let path = &settings.spawn_config;
+    if path.exists() {
+        let config = trafficmesh_maps::load_spawn_config(path)?;
+        state
+            .set_config(config)
+            .map_err(|problems| anyhow::anyhow!("{}: {}", path.display(), problems.join("; ")))?;
+        tracing::info!("loaded spawn config {}", path.display());
     }
     Ok(Spawner {
         bus: OnceLock::new(),
         state: Mutex::new(state),
-        spawn_config_path: args.spawn_config.clone(),
-        branch_csv_path: args.branch_csv.clone(),
+        spawn_config_path: settings.spawn_config.clone(),
+        branch_csv_path: settings.branch_csv.clone(),
         map,
         pending: Mutex::new((Vec::new(), 0.0)),
         warned: AtomicBool::new(false),

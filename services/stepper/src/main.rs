@@ -12,10 +12,11 @@ mod tick_loop;
 use std::process::ExitCode;
 use std::sync::Arc;
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Parser;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
 use trafficmesh_service::MapArgs;
+use trafficmesh_service::settings::StepperSettings;
 use trafficmesh_sim::{World, WorldConfig};
 
 #[derive(Parser)]
@@ -33,29 +34,11 @@ pub struct Args {
     /// Random seed of the vehicles' branch choices.
     #[arg(long, default_value_t = 0)]
     seed: u64,
-    /// Tick length, seconds of simulation time.
-    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
-    dt: f64,
-    /// Simulation seconds per wall-clock second; 0 runs as fast as possible.
-    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
-    speed: f64,
+    #[command(flatten)]
+    settings: StepperSettings,
     /// Worker threads for the vehicle pipeline (0 = one per core).
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Vehicles placed on the map at start (benchmarks); 0 = none.
-    #[arg(long, default_value_t = 0)]
-    populate: usize,
-    /// Stop after this many simulated seconds (default: run until stopped).
-    #[arg(long, allow_negative_numbers = true)]
-    duration: Option<f64>,
-    /// Driver model of vehicle types that do not choose their own: `awsim`
-    /// or `realistic` (IDM). Default: realistic on SUMO maps, awsim elsewhere.
-    #[arg(long)]
-    driver_model: Option<trafficmesh_model::DriverModel>,
-    /// Seconds a queue head may stand (not at a red light) before it is moved
-    /// to the next lane of its way with room, or taken off (0: never).
-    #[arg(long, default_value_t = trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT, allow_negative_numbers = true)]
-    jam_timeout: f64,
     #[command(flatten)]
     vehicle: trafficmesh_service::VehicleArgs,
     /// Start each tick only when the lockstep members (every process answering
@@ -75,35 +58,17 @@ fn main() -> ExitCode {
 }
 
 fn run(args: Args) -> Result<()> {
-    if !(args.dt.is_finite() && args.dt > 0.0 && args.dt <= 1.0) {
-        bail!("--dt must be in (0, 1] seconds, got {}", args.dt);
-    }
-    if !(args.speed.is_finite() && args.speed >= 0.0) {
-        bail!(
-            "--speed must be 0 (as fast as possible) or a positive factor, got {}",
-            args.speed
-        );
-    }
-    if let Some(d) = args.duration
-        && !(d.is_finite() && d > 0.0)
-    {
-        bail!("--duration must be a positive number of seconds, got {d}");
-    }
-    if !(args.jam_timeout.is_finite() && args.jam_timeout >= 0.0) {
-        bail!(
-            "--jam-timeout must be 0 (never) or a positive number of seconds, got {}",
-            args.jam_timeout
-        );
-    }
+    let settings = &args.settings;
+    trafficmesh_service::check_flags(settings)?;
     args.bus.keys()?;
     let net = args.map.load()?;
-    let driver_model = args
-        .driver_model
+    let driver_model = settings
+        .driver_model()
         .unwrap_or_else(|| trafficmesh_maps::default_driver_model(args.map.path()));
     let config = WorldConfig {
         seed: args.seed,
-        dt: args.dt,
-        jam_timeout: args.jam_timeout,
+        dt: settings.dt,
+        jam_timeout: settings.jam_timeout,
         vehicle: args.vehicle.apply(
             trafficmesh_model::NpcVehicleConfig {
                 driver_model,
@@ -119,8 +84,8 @@ fn run(args: Args) -> Result<()> {
     // Lights come from the lights service: red until it vouches for them.
     let mut world = World::new(net, config).without_simulators();
     world.use_remote_lights();
-    if args.populate > 0 {
-        let placed = trafficmesh_sim::populate::populate(&mut world, args.populate);
+    if settings.populate > 0 {
+        let placed = trafficmesh_sim::populate::populate(&mut world, settings.populate);
         tracing::info!("placed {placed} vehicles");
     }
     let pool = rayon::ThreadPoolBuilder::new()
@@ -160,8 +125,8 @@ fn run(args: Args) -> Result<()> {
             )
         });
         let pacing = tick_loop::Pacing {
-            speed: args.speed,
-            duration: args.duration,
+            speed: args.settings.speed,
+            duration: args.settings.duration,
             lockstep,
         };
         let tick_bus = bus.clone();

@@ -111,12 +111,3 @@ async fn follow<S: Service>(bus: &Arc<Bus>, service: &Arc<S>, lockstep: bool) ->
     }
     Ok(())
 }
-
-/// `--<flag>` must be a positive, finite number of seconds.
-pub fn positive_seconds(flag: &str, value: f64) -> Result<()> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        anyhow::bail!("--{flag} must be a positive number of seconds, got {value}")
-    }
-}

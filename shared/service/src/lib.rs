@@ -5,9 +5,11 @@
 
 pub mod args;
 mod kit;
+pub mod settings;
 
 pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
-pub use kit::{Service, ServiceArgs, positive_seconds, run};
+pub use kit::{Service, ServiceArgs, run};
+pub use settings::{Settings, check_flags};
 
 use trafficmesh_maps::FileError;
 use trafficmesh_protocol::wire::EgoPose;
