@@ -1,15 +1,15 @@
 //! A real cluster per test: `trafficmesh up` with its own cluster name, port
 //! and files, and a Zenoh client session that talks to it like any user's.
 
-use std::io::Read;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
-use trafficmesh_bus::{Bus, BusArgs, Role};
+use trafficmesh_bus::{Bus, Role};
 use trafficmesh_protocol::wire::{ServiceStatus, VehicleBatch};
+use trafficmesh_testkit::{ClusterSpec, LocalCluster};
 
 pub fn repo() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../..")
@@ -40,22 +40,29 @@ pub fn free_port() -> u16 {
     trafficmesh_bus::free_loopback_port().expect("a free loopback port")
 }
 
-pub struct Cluster {
-    pub name: String,
-    pub endpoint: String,
-    pub dir: tempfile::TempDir,
-    /// `http://127.0.0.1:<port>` when the admin runs.
-    pub admin: Option<String>,
-    child: Child,
-    log: PathBuf,
+/// A cluster of the tests: `trafficmesh up` on a map, seed 7, started the
+/// one way tests and benchmarks start clusters.
+pub struct Cluster(LocalCluster);
+
+impl std::ops::Deref for Cluster {
+    type Target = LocalCluster;
+    fn deref(&self) -> &LocalCluster {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Cluster {
+    fn deref_mut(&mut self) -> &mut LocalCluster {
+        &mut self.0
+    }
 }
 
 /// The admin token the test clusters use.
 pub const TOKEN: &str = "test-token-0123456789abcdef";
 
 impl Cluster {
-    /// Starts `trafficmesh up` with the four-way map; `extra` is appended to
-    /// the generated cluster.toml (sections override the defaults below).
+    /// Starts `trafficmesh up` with the four-way map; `spawner` is appended
+    /// to cluster.toml's `[spawner]`.
     pub fn start(test: &str, spawner: &str, pedestrians: bool, stepper_speed: f64) -> Cluster {
         Self::start_with_backoff(test, spawner, pedestrians, stepper_speed, 200)
     }
@@ -84,18 +91,6 @@ impl Cluster {
         Self::launch(test, &four_way(), "", pedestrians, stepper, 200, false)
     }
 
-    /// Waits for `up` to exit by itself; its exit status, or None on timeout.
-    pub fn wait_exit(&mut self, timeout: Duration) -> Option<std::process::ExitStatus> {
-        let deadline = Instant::now() + timeout;
-        while Instant::now() < deadline {
-            if let Ok(Some(status)) = self.child.try_wait() {
-                return Some(status);
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        None
-    }
-
     /// As `start`, with the REST admin on a free port (token [`TOKEN`]).
     pub fn start_with_admin(test: &str, spawner: &str, pedestrians: bool) -> Cluster {
         Self::start_on_with_admin(test, &four_way(), spawner, pedestrians)
@@ -122,60 +117,19 @@ impl Cluster {
         backoff_ms: u64,
         with_admin: bool,
     ) -> Cluster {
-        let dir = tempfile::tempdir().unwrap();
-        let admin_port = free_port();
-        let name = format!("t{}_{test}", std::process::id());
-        let endpoint = format!("tcp/127.0.0.1:{}", free_port());
-        // A SUMO scenario goes in as `sumocfg`, any other map as `map`.
-        let map_key = if map.to_string_lossy().ends_with(".sumocfg") {
-            "sumocfg"
-        } else {
-            "map"
+        let spec = ClusterSpec {
+            seed: 7,
+            stepper: stepper.into(),
+            spawner: spawner.into(),
+            pedestrians,
+            admin_token: with_admin.then(|| TOKEN.to_string()),
+            restart_backoff_ms: backoff_ms,
+            ..ClusterSpec::new(format!("t{}_{test}", std::process::id()), map)
         };
-        let config = format!(
-            r#"cluster = "{name}"
-{map_key} = "{map}"
-endpoint = "{endpoint}"
-seed = 7
-[stepper]
-{stepper}
-[spawner]
-spawn_config = "{dir}/traffic_spawn.json"
-branch_csv = "{dir}/traffic_branch_decisions.csv"
-{spawner}
-[pedestrians]
-enabled = {pedestrians}
-[restart]
-initial_backoff_ms = {backoff_ms}
-max_backoff_ms = {backoff_ms}
-[admin]
-enabled = {with_admin}
-listen = "127.0.0.1:{admin_port}"
-token = "{TOKEN}"
-token_file = "{dir}/admin.token"
-"#,
-            map = map.display(),
-            dir = dir.path().display(),
-        );
-        let path = dir.path().join("cluster.toml");
-        std::fs::write(&path, config).unwrap();
-        let log = dir.path().join("up.log");
-        let child = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-            .args(["up", "--config"])
-            .arg(&path)
-            .env("RUST_LOG", "info,zenoh=warn")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap())
-            .spawn()
-            .unwrap();
-        Cluster {
-            name,
-            endpoint,
-            dir,
-            admin: with_admin.then(|| format!("http://127.0.0.1:{admin_port}")),
-            child,
-            log,
-        }
+        let dir = LocalCluster::folder().unwrap();
+        Cluster(
+            LocalCluster::launch(Path::new(env!("CARGO_BIN_EXE_trafficmesh")), dir, &spec).unwrap(),
+        )
     }
 
     /// Waits (up to a minute) until the admin answers and sees the core services alive.
@@ -199,16 +153,6 @@ token_file = "{dir}/admin.token"
         }
     }
 
-    pub fn bus_args(&self) -> BusArgs {
-        BusArgs {
-            cluster: self.name.clone(),
-            zenoh_config: None,
-            mode: None,
-            connect: vec![self.endpoint.clone()],
-            listen: vec!["tcp/127.0.0.1:0".into()],
-        }
-    }
-
     pub async fn client(&self) -> Bus {
         let bus = Bus::open(&self.bus_args(), Role::Member, "test")
             .await
@@ -218,16 +162,6 @@ token_file = "{dir}/admin.token"
             "no peer: is the cluster up?"
         );
         bus
-    }
-
-    /// The cluster's combined log so far.
-    pub fn log(&self) -> String {
-        let mut s = String::new();
-        std::fs::File::open(&self.log)
-            .unwrap()
-            .read_to_string(&mut s)
-            .unwrap();
-        s
     }
 
     /// Waits until the log contains `needle`.
@@ -240,27 +174,6 @@ token_file = "{dir}/admin.token"
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
         false
-    }
-
-    pub fn stop(&mut self) {
-        unsafe { libc::kill(self.child.id() as i32, libc::SIGTERM) };
-        let deadline = Instant::now() + Duration::from_secs(15);
-        while Instant::now() < deadline {
-            if let Ok(Some(_)) = self.child.try_wait() {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        let _ = self.child.kill();
-    }
-}
-
-impl Drop for Cluster {
-    fn drop(&mut self) {
-        self.stop();
-        if std::thread::panicking() {
-            eprintln!("---- cluster log ----\n{}", self.log());
-        }
     }
 }
 

@@ -14,7 +14,7 @@ use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_protocol::wire::Clock;
 
-use super::bench_up::BenchCluster;
+use super::bench_up;
 
 #[derive(Args)]
 pub struct AdminArgs {
@@ -75,10 +75,9 @@ pub fn run(a: AdminArgs) -> Result<()> {
     {
         bail!("--size, --vehicles, --connections, --rate and --duration must be positive");
     }
-    let cluster = BenchCluster::start(a.size, a.vehicles, "", true)?;
+    let cluster = bench_up::start(a.size, a.vehicles, "", true)?;
     let base = cluster.admin.clone().expect("started with the admin");
-    warm_up(&base, a.vehicles)
-        .with_context(|| format!("cluster log: {}", cluster.log.display()))?;
+    warm_up(&base, a.vehicles).with_context(|| format!("cluster log:\n{}", cluster.log()))?;
 
     let bus_args = cluster.bus_args();
     let seconds = a.duration;

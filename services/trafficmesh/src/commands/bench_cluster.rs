@@ -8,7 +8,7 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result, bail};
 
-use super::bench_up::BenchCluster;
+use super::bench_up;
 use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
@@ -79,9 +79,9 @@ pub fn run(a: ClusterArgs) -> Result<()> {
     }
     let lockstep = a.lockstep || a.speed == 0.0;
     let stepper = format!("speed = {}\nlockstep = {lockstep}", a.speed);
-    let cluster = BenchCluster::start(a.size, a.vehicles, &stepper, false)?;
+    let cluster = bench_up::start(a.size, a.vehicles, &stepper, false)?;
     let report = measure(&a, &cluster.bus_args())
-        .with_context(|| format!("cluster log: {}", cluster.log.display()))?;
+        .with_context(|| format!("cluster log:\n{}", cluster.log()))?;
     drop(cluster);
     if a.json {
         println!("{}", serde_json::to_string(&report)?);
