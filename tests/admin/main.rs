@@ -8,6 +8,7 @@ mod support;
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use http::{Api, Auth};
 use serde_json::{Value, json};
@@ -360,7 +361,7 @@ fn spawns_on(cluster: &Cluster, lane: &str, window: Duration) -> usize {
     runtime().block_on(async {
         let bus = cluster.client().await;
         let events = bus
-            .subscribe_ring(&bus.keys().events(), 10_000)
+            .subscribe_ring(&bus.keys().key(&topics::EVENTS), 10_000)
             .await
             .unwrap();
         tokio::time::sleep(window).await;
@@ -751,7 +752,7 @@ fn vehicles_ego_lights_and_crosswalks_can_be_operated() {
         };
         let deadline = Instant::now() + Duration::from_secs(15);
         loop {
-            bus.put(&bus.keys().agents("admintest"), &walker)
+            bus.put(&bus.keys().key_at(&topics::AGENTS, "admintest"), &walker)
                 .await
                 .unwrap();
             let occupied = tokio::task::block_in_place(|| {

@@ -4,6 +4,7 @@
 
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use trafficmesh_protocol::wire::{LockstepTick, TickReport};
 
@@ -86,7 +87,7 @@ fn the_stepper_waits_for_a_process_that_keeps_in_step() {
             let (bus, seen) = (bus.clone(), seen.clone());
             let (hold_at, tick_while_held) = (hold_at.clone(), tick_while_held.clone());
             tokio::spawn(async move {
-                let key = bus.keys().lockstep_member("probe");
+                let key = bus.keys().key_at(&topics::LOCKSTEP_STEP, "probe");
                 let asker = bus.clone();
                 asker
                     .answer_ticks(&key, |tick: LockstepTick| {

@@ -9,6 +9,7 @@ mod lockstep;
 
 use std::collections::HashSet;
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use support::*;
 use trafficmesh_model::LightColor;
@@ -48,7 +49,7 @@ async fn set_light(
         color,
         program: None,
     };
-    ask(bus, &bus.keys().lights_override(), &o).await
+    ask(bus, &bus.keys().key(&topics::LIGHTS_OVERRIDE), &o).await
 }
 
 #[test]
@@ -134,7 +135,10 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
         let bus = cluster.client().await;
         let keys = bus.keys().clone();
         let batches = Batches::with_traffic(&bus, 10).await;
-        let events = bus.subscribe_ring(&keys.events(), 10_000).await.unwrap();
+        let events = bus
+            .subscribe_ring(&keys.key(&topics::EVENTS), 10_000)
+            .await
+            .unwrap();
         // Keep every light green so only the pedestrian stops anyone.
         for g in ["J0_0_NS", "J0_0_EW"] {
             set_light(&bus, g, Some(LightColor::Green)).await;
@@ -150,7 +154,9 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
                 Instant::now() < deadline,
                 "no vehicle stopped for the pedestrian"
             );
-            bus.put(&keys.agents("test"), &walker).await.unwrap();
+            bus.put(&keys.key_at(&topics::AGENTS, "test"), &walker)
+                .await
+                .unwrap();
             while let Ok(Some(s)) = events.try_recv() {
                 let batch: EventBatch = serde_json::from_slice(&s.payload().to_bytes()).unwrap();
                 for e in batch.events {
@@ -184,7 +190,9 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
         // While the pedestrian stays, that vehicle comes to a stop before the crossing.
         let settle = Instant::now() + Duration::from_secs(15);
         loop {
-            bus.put(&keys.agents("test"), &walker).await.unwrap();
+            bus.put(&keys.key_at(&topics::AGENTS, "test"), &walker)
+                .await
+                .unwrap();
             let b = batches.latest().await;
             let v = b
                 .vehicles
@@ -205,7 +213,7 @@ fn a_pedestrian_on_a_crosswalk_stops_traffic_until_it_leaves() {
         }
         // The pedestrian leaves: the source reports nobody.
         bus.put(
-            &keys.agents("test"),
+            &keys.key_at(&topics::AGENTS, "test"),
             &AgentBatch {
                 time: 0.0,
                 agents: vec![],
@@ -240,7 +248,10 @@ fn an_occupant_outside_the_whitelist_does_not_block() {
             let bus = &bus;
             async move {
                 let all: Vec<CrosswalkOccupancy> = bus
-                    .get_each(&bus.keys().occupancies(), Duration::from_secs(2))
+                    .get_each(
+                        &bus.keys().key_all(&topics::OCCUPANCY),
+                        Duration::from_secs(2),
+                    )
                     .await
                     .unwrap();
                 all.into_iter()
@@ -253,7 +264,9 @@ fn an_occupant_outside_the_whitelist_does_not_block() {
             time: 0.0,
             agents: vec![pedestrian("TruckCollider", -15.0, 0.0)],
         };
-        bus.put(&keys.agents("test"), &stranger).await.unwrap();
+        bus.put(&keys.key_at(&topics::AGENTS, "test"), &stranger)
+            .await
+            .unwrap();
         tokio::time::sleep(Duration::from_millis(500)).await;
         assert!(
             !occupancy("J0_0_crosswalk_W").await.occupied,
@@ -264,7 +277,9 @@ fn an_occupant_outside_the_whitelist_does_not_block() {
             time: 0.0,
             agents: vec![pedestrian("Human_1", -15.0, 0.0)],
         };
-        bus.put(&keys.agents("test"), &walker).await.unwrap();
+        bus.put(&keys.key_at(&topics::AGENTS, "test"), &walker)
+            .await
+            .unwrap();
         tokio::time::sleep(Duration::from_millis(500)).await;
         let o = occupancy("J0_0_crosswalk_W").await;
         assert!(o.occupied);
@@ -450,25 +465,25 @@ fn bad_payloads_are_counted_and_dropped_and_nothing_crashes() {
         let keys = bus.keys().clone();
         let stepper_pid = status(&bus, "stepper").await.pid;
         let spawner_pid = status(&bus, "spawner").await.pid;
-        for key in [keys.ego(), keys.light_state("J0_0_NS"), keys.proposals("py"), keys.agents("bad")] {
+        for key in [keys.key(&topics::EGO), keys.key_at(&topics::LIGHT_STATE, "J0_0_NS"), keys.key_at(&topics::PROPOSALS, "py"), keys.key_at(&topics::AGENTS, "bad")] {
             subscriber_on(&bus, &key).await;
         }
         let session = bus.session();
-        session.put(keys.ego(), "{not json").await.unwrap();
-        session.put(keys.ego(), r#"{"x": 1e999, "y": 0, "yaw": 0}"#).await.unwrap();
-        bus.put(&keys.light_state("J0_0_NS"), &serde_json::json!({"group": "nope", "color": "green", "next_change": null, "valid_until": 1e9, "forced": false})).await.unwrap();
-        bus.put(&keys.proposals("py"), &serde_json::json!({"proposals": [{"tag": "a", "lane": "no_such_lane", "kind": "Taxi"}]})).await.unwrap();
-        bus.put(&keys.agents("bad"), &serde_json::json!({"time": 0, "agents": [{"id": "a", "root": "Human", "type": "NPCPedestrian", "footprint": [[0, 0]]}]})).await.unwrap();
+        session.put(keys.key(&topics::EGO), "{not json").await.unwrap();
+        session.put(keys.key(&topics::EGO), r#"{"x": 1e999, "y": 0, "yaw": 0}"#).await.unwrap();
+        bus.put(&keys.key_at(&topics::LIGHT_STATE, "J0_0_NS"), &serde_json::json!({"group": "nope", "color": "green", "next_change": null, "valid_until": 1e9, "forced": false})).await.unwrap();
+        bus.put(&keys.key_at(&topics::PROPOSALS, "py"), &serde_json::json!({"proposals": [{"tag": "a", "lane": "no_such_lane", "kind": "Taxi"}]})).await.unwrap();
+        bus.put(&keys.key_at(&topics::AGENTS, "bad"), &serde_json::json!({"time": 0, "agents": [{"id": "a", "root": "Human", "type": "NPCPedestrian", "footprint": [[0, 0]]}]})).await.unwrap();
         let deadline = Instant::now() + Duration::from_secs(10);
         loop {
             let stepper = status(&bus, "stepper").await;
             let spawner = status(&bus, "spawner").await;
             let crosswalks = status(&bus, "crosswalks").await;
-            let ego_key = keys.ego();
+            let ego_key = keys.key(&topics::EGO);
             let done = stepper.bad_payloads_by_key.get(&ego_key).copied().unwrap_or(0) >= 2
-                && stepper.bad_payloads_by_key.contains_key(&keys.light_state("J0_0_NS"))
-                && spawner.bad_payloads_by_key.contains_key(&keys.proposals("py"))
-                && crosswalks.bad_payloads_by_key.contains_key(&keys.agents("bad"));
+                && stepper.bad_payloads_by_key.contains_key(&keys.key_at(&topics::LIGHT_STATE, "J0_0_NS"))
+                && spawner.bad_payloads_by_key.contains_key(&keys.key_at(&topics::PROPOSALS, "py"))
+                && crosswalks.bad_payloads_by_key.contains_key(&keys.key_at(&topics::AGENTS, "bad"));
             if done {
                 assert_eq!(stepper.pid, stepper_pid, "stepper restarted");
                 assert_eq!(spawner.pid, spawner_pid, "spawner restarted");
@@ -480,7 +495,7 @@ fn bad_payloads_are_counted_and_dropped_and_nothing_crashes() {
         assert!(cluster.log().contains("dropped bad payload on"));
         // And the good ones still work.
         let ego = EgoPose { x: 0.0, y: 0.0, z: 0.0, yaw: 0.0, length: 4.9, width: 1.9, front_offset: 3.8 };
-        bus.put(&keys.ego(), &ego).await.unwrap();
+        bus.put(&keys.key(&topics::EGO), &ego).await.unwrap();
     });
 }
 
@@ -692,7 +707,10 @@ fn a_service_with_another_map_than_the_steppers_refuses_to_join() {
         let until = Instant::now() + Duration::from_secs(20);
         loop {
             let states: Vec<LightState> = bus
-                .get_each(&bus.keys().light_states(), Duration::from_secs(2))
+                .get_each(
+                    &bus.keys().key_all(&topics::LIGHT_STATE),
+                    Duration::from_secs(2),
+                )
                 .await
                 .unwrap();
             if states.iter().any(|s| s.group == "J0_0_NS") {

@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
@@ -179,7 +180,7 @@ impl Cluster {
 
 /// A service's status, once it answers.
 pub async fn status(bus: &Bus, service: &str) -> ServiceStatus {
-    let key = bus.keys().status(service);
+    let key = bus.keys().key_at(&topics::STATUS, service);
     let deadline = Instant::now() + Duration::from_secs(20);
     loop {
         match bus
@@ -227,7 +228,10 @@ pub struct Batches {
 impl Batches {
     pub async fn new(bus: &Bus) -> Batches {
         Batches {
-            sub: bus.subscribe_ring(&bus.keys().vehicles(), 1).await.unwrap(),
+            sub: bus
+                .subscribe_ring(&bus.keys().key(&topics::VEHICLES), 1)
+                .await
+                .unwrap(),
         }
     }
 

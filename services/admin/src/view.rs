@@ -6,6 +6,7 @@
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::{Arc, RwLock};
 use std::time::Instant;
+use trafficmesh_protocol::topics;
 
 use anyhow::Result;
 use trafficmesh_bus::Bus;
@@ -56,7 +57,7 @@ impl ClusterView {
     ) -> Result<()> {
         let keys = bus.keys().clone();
 
-        let vehicles = bus.subscribe_ring(&keys.vehicles(), 1).await?;
+        let vehicles = bus.subscribe_ring(&keys.key(&topics::VEHICLES), 1).await?;
         let view = self.clone();
         tokio::spawn(async move {
             while let Ok(sample) = vehicles.recv_async().await {
@@ -66,7 +67,7 @@ impl ClusterView {
             }
         });
 
-        let clock = bus.subscribe_ring(&keys.clock(), 1).await?;
+        let clock = bus.subscribe_ring(&keys.key(&topics::CLOCK), 1).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
             while let Ok(sample) = clock.recv_async().await {
@@ -78,7 +79,7 @@ impl ClusterView {
         });
 
         // Events only feed the counters; every batch counts, so no ring here.
-        let events = bus.subscribe(&keys.events()).await?;
+        let events = bus.subscribe(&keys.key(&topics::EVENTS)).await?;
         let b = bus.clone();
         tokio::spawn(async move {
             while let Ok(sample) = events.recv_async().await {
@@ -88,7 +89,7 @@ impl ClusterView {
             }
         });
 
-        let lights = bus.subscribe(&keys.light_states()).await?;
+        let lights = bus.subscribe(&keys.key_all(&topics::LIGHT_STATE)).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
             while let Ok(sample) = lights.recv_async().await {
@@ -100,7 +101,7 @@ impl ClusterView {
             }
         });
 
-        let occupancy = bus.subscribe(&keys.occupancies()).await?;
+        let occupancy = bus.subscribe(&keys.key_all(&topics::OCCUPANCY)).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
             while let Ok(sample) = occupancy.recv_async().await {
@@ -112,7 +113,7 @@ impl ClusterView {
             }
         });
 
-        let statuses = bus.subscribe(&keys.all_status()).await?;
+        let statuses = bus.subscribe(&keys.key_all(&topics::STATUS)).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
             while let Ok(sample) = statuses.recv_async().await {
@@ -129,7 +130,7 @@ impl ClusterView {
         let alive = bus
             .session()
             .liveliness()
-            .declare_subscriber(keys.all_alive())
+            .declare_subscriber(keys.key_all(&topics::ALIVE))
             .history(true)
             .await
             .map_err(|e| anyhow::anyhow!("liveliness subscription: {e}"))?;
@@ -171,10 +172,10 @@ impl ClusterView {
         let keys = bus.keys();
         let timeout = std::time::Duration::from_secs(2);
         let lights = bus
-            .get_each::<LightState>(&keys.light_states(), timeout)
+            .get_each::<LightState>(&keys.key_all(&topics::LIGHT_STATE), timeout)
             .await;
         let occupancy = bus
-            .get_each::<CrosswalkOccupancy>(&keys.occupancies(), timeout)
+            .get_each::<CrosswalkOccupancy>(&keys.key_all(&topics::OCCUPANCY), timeout)
             .await;
         let mut v = self.write();
         for s in lights.unwrap_or_default() {

@@ -12,7 +12,6 @@ use anyhow::Result;
 use clap::Parser;
 use glam::DVec2;
 use trafficmesh_bus::{Bus, Vouch, runtime};
-use trafficmesh_protocol::Keys;
 use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, LockstepTick,
@@ -131,7 +130,8 @@ impl Service for Crosswalks {
 
     async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
         tokio::spawn(take_agents(bus.clone(), self.clone()));
-        tokio::spawn(answer_queries(bus.clone(), self.clone()));
+        tokio::spawn(answer_states(bus.clone(), self.clone()));
+        tokio::spawn(answer_blocked_stops(bus.clone(), self.clone()));
         Ok(())
     }
 
@@ -162,7 +162,7 @@ impl Service for Crosswalks {
         tick.spawn_verdicts.clear();
         let batches = bus
             .lockstep_round_of::<AgentBatch>(
-                &bus.keys().lockstep_all_agents(),
+                &bus.keys().key_all(&topics::LOCKSTEP_AGENTS),
                 &tick,
                 &self.required_sources,
                 || true,
@@ -177,7 +177,10 @@ impl Service for Crosswalks {
             let mut changed = drop_silent(a, self.source_timeout);
             for (source, batch) in &batches {
                 if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
-                    bus.reject(&bus.keys().lockstep_agents(source), &problem);
+                    bus.reject(
+                        &bus.keys().key_at(&topics::LOCKSTEP_AGENTS, source),
+                        &problem,
+                    );
                     continue;
                 }
                 a.in_step.insert(source.clone());
@@ -221,21 +224,15 @@ fn poses(batch: &AgentBatch) -> Vec<AgentPose> {
 
 /// `agents/*`: each source's full set of agents.
 async fn take_agents(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
-    let keys = bus.keys().clone();
-    let Ok(subscriber) = bus.subscribe(&keys.all_agents()).await else {
-        tracing::error!("cannot subscribe to {}", keys.all_agents());
+    let Ok(agents) = bus.subscribe_to(&topics::AGENTS).await else {
+        tracing::error!("cannot subscribe to the agent sources");
         return;
     };
-    while let Ok(sample) = subscriber.recv_async().await {
-        let key = sample.key_expr().as_str().to_string();
-        let Some(batch) = bus.decode::<AgentBatch>(&sample) else {
-            continue;
-        };
+    while let Some((source, batch)) = agents.next(&bus).await {
         if let Some(problem) = batch.agents.iter().find_map(|a| a.problem()) {
-            bus.reject(&key, &problem);
+            bus.reject(&bus.keys().key_at(&topics::AGENTS, &source), &problem);
             continue;
         }
-        let source = Keys::last_chunk(&key).to_string();
         let poses = poses(&batch);
         let changed = {
             let mut guard = crosswalks.areas();
@@ -277,51 +274,56 @@ fn drop_silent(a: &mut Areas, timeout: Duration) -> BTreeSet<usize> {
     changed
 }
 
-/// `crosswalks/occupancy/*` (current states) and `crosswalks/blocked_stop`.
-async fn answer_queries(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
+/// `crosswalks/occupancy/*` as a query: every area's current state (late joiners).
+async fn answer_states(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
     let keys = bus.keys().clone();
-    let (Ok(states), Ok(blocked)) = (
-        bus.queryable(&keys.occupancies()).await,
-        bus.queryable(&keys.blocked_stop()).await,
-    ) else {
-        tracing::error!("cannot declare the crosswalk queryables");
+    let Ok(states) = bus.queryable(&keys.key_all(&topics::OCCUPANCY)).await else {
+        tracing::error!("cannot declare the occupancy queryable");
         return;
     };
-    loop {
-        tokio::select! {
-            Ok(query) = states.recv_async() => {
-                let all: Vec<CrosswalkOccupancy> = {
-                    let a = crosswalks.areas();
-                    (0..a.net.crosswalks.len()).map(|i| a.state(i, crosswalks.validity)).collect()
-                };
-                for s in all {
-                    bus.reply_at(&query, &keys.occupancy(&s.area), &s).await;
-                }
-            }
-            Ok(query) = blocked.recv_async() => {
-                let Some(q) = bus.query_payload::<BlockedStopQuery>(&query).await else { continue };
-                if let Some(bad) = trafficmesh_protocol::wire::first_non_finite(&[("x", q.x), ("y", q.y), ("yaw", q.yaw)]) {
-                    let reason = format!("{bad} is not a finite number");
-                    bus.reject(query.key_expr().as_str(), &reason);
-                    bus.reply_error(&query, &reason).await;
-                    continue;
-                }
-                let answer = {
-                    let a = crosswalks.areas();
-                    let hit = try_get_blocked_stop(
-                        &a.net.crosswalks,
-                        &a.occupancy,
-                        DVec2::new(q.x, q.y),
-                        DVec2::from_angle(q.yaw),
-                    );
-                    BlockedStopAnswer {
-                        blocked: hit.is_some(),
-                        distance: hit.map(|(d, _)| d),
-                        area: hit.map(|(_, i)| a.net.crosswalks[i].name.clone()),
-                    }
-                };
-                bus.reply(&query, &answer).await;
-            }
+    while let Ok(query) = states.recv_async().await {
+        let all: Vec<CrosswalkOccupancy> = {
+            let a = crosswalks.areas();
+            (0..a.net.crosswalks.len())
+                .map(|i| a.state(i, crosswalks.validity))
+                .collect()
+        };
+        for s in all {
+            bus.reply_at(&query, &keys.key_at(&topics::OCCUPANCY, &s.area), &s)
+                .await;
         }
     }
+}
+
+/// `crosswalks/blocked_stop`: where a vehicle at a pose must stop for an
+/// occupied crosswalk ahead, if anywhere.
+async fn answer_blocked_stops(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
+    let served = bus
+        .serve(&topics::BLOCKED_STOP, |q: BlockedStopQuery| {
+            let answer = blocked_stop(&crosswalks.areas(), &q);
+            async move { answer }
+        })
+        .await;
+    if let Err(e) = served {
+        tracing::error!("cannot serve the blocked-stop query: {e}");
+    }
+}
+
+fn blocked_stop(a: &Areas, q: &BlockedStopQuery) -> Result<BlockedStopAnswer, String> {
+    if let Some(bad) =
+        trafficmesh_protocol::wire::first_non_finite(&[("x", q.x), ("y", q.y), ("yaw", q.yaw)])
+    {
+        return Err(format!("{bad} is not a finite number"));
+    }
+    let hit = try_get_blocked_stop(
+        &a.net.crosswalks,
+        &a.occupancy,
+        DVec2::new(q.x, q.y),
+        DVec2::from_angle(q.yaw),
+    );
+    Ok(BlockedStopAnswer {
+        blocked: hit.is_some(),
+        distance: hit.map(|(d, _)| d),
+        area: hit.map(|(_, i)| a.net.crosswalks[i].name.clone()),
+    })
 }

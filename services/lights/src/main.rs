@@ -158,8 +158,8 @@ async fn publish(bus: &Bus, states: &[LightState]) {
 /// `lights/state/*` as a query: every group's current state (late joiners).
 async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
     let keys = bus.keys().clone();
-    let Ok(queryable) = bus.queryable(&keys.light_states()).await else {
-        tracing::error!("cannot declare {}", keys.light_states());
+    let Ok(queryable) = bus.queryable(&keys.key_all(&topics::LIGHT_STATE)).await else {
+        tracing::error!("cannot declare {}", keys.key_all(&topics::LIGHT_STATE));
         return;
     };
     while let Ok(query) = queryable.recv_async().await {
@@ -170,7 +170,7 @@ async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
                 .collect()
         };
         for s in states {
-            let key = keys.light_state(&s.group);
+            let key = keys.key_at(&topics::LIGHT_STATE, &s.group);
             if query
                 .key_expr()
                 .intersects(&zenoh::key_expr::KeyExpr::try_from(key.as_str()).expect("plain key"))
@@ -183,27 +183,20 @@ async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
 
 /// `lights/override`: force a colour, set a program, or return to the map's.
 async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
-    let keys = bus.keys().clone();
-    let Ok(queryable) = bus.queryable(&keys.lights_override()).await else {
-        tracing::error!("cannot declare {}", keys.lights_override());
-        return;
-    };
-    while let Ok(query) = queryable.recv_async().await {
-        let Some(o) = bus.query_payload::<LightOverride>(&query).await else {
-            continue;
-        };
-        let result = apply_override(&mut lights.groups(), &o, lights.validity);
-        match result {
-            Ok(state) => {
+    let served = bus
+        .serve(&topics::LIGHTS_OVERRIDE, |o: LightOverride| {
+            let state = apply_override(&mut lights.groups(), &o, lights.validity);
+            let bus = &bus;
+            async move {
+                let state = state?;
                 tracing::info!("light group '{}' overridden: {:?}", o.group, state.color);
-                publish(&bus, std::slice::from_ref(&state)).await;
-                bus.reply(&query, &state).await;
+                publish(bus, std::slice::from_ref(&state)).await;
+                Ok(state)
             }
-            Err(reason) => {
-                bus.reject(query.key_expr().as_str(), &reason);
-                bus.reply_error(&query, &reason).await;
-            }
-        }
+        })
+        .await;
+    if let Err(e) = served {
+        tracing::error!("cannot serve the light overrides: {e}");
     }
 }
 

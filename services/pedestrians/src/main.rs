@@ -143,6 +143,6 @@ impl Service for PedestriansService {
     }
 
     fn lockstep_key(keys: &Keys) -> String {
-        keys.lockstep_agents(Self::NAME)
+        keys.key_at(&topics::LOCKSTEP_AGENTS, Self::NAME)
     }
 }

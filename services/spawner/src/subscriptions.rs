@@ -3,8 +3,8 @@
 use std::sync::Arc;
 
 use trafficmesh_bus::BusError;
-use trafficmesh_protocol::Keys;
-use trafficmesh_protocol::wire::{EgoPose, Event, EventBatch, ProposalBatch};
+use trafficmesh_protocol::topics;
+use trafficmesh_protocol::wire::Event;
 
 use crate::Spawner;
 
@@ -12,28 +12,23 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     let bus = spawner.bus().clone();
     let keys = bus.keys().clone();
 
-    let ego = bus.subscribe(&keys.ego()).await?;
+    let ego = bus.subscribe_to(&topics::EGO).await?;
     let s = spawner.clone();
     tokio::spawn(async move {
-        while let Ok(sample) = ego.recv_async().await {
-            let Some(pose) = s.bus().decode::<EgoPose>(&sample) else {
-                continue;
-            };
+        while let Some((_, pose)) = ego.next(s.bus()).await {
             if let Some(problem) = pose.problem() {
-                s.bus().reject(sample.key_expr().as_str(), &problem);
+                s.bus().reject(&keys.key(&topics::EGO), &problem);
                 continue;
             }
             s.state().ego = Some(trafficmesh_service::ego_of(&pose));
         }
     });
 
-    let events = bus.subscribe(&keys.events()).await?;
+    let events = bus.subscribe_to(&topics::EVENTS).await?;
     let s = spawner.clone();
+    let keys = bus.keys().clone();
     tokio::spawn(async move {
-        while let Ok(sample) = events.recv_async().await {
-            let Some(batch) = s.bus().decode::<EventBatch>(&sample) else {
-                continue;
-            };
+        while let Some((_, batch)) = events.next(s.bus()).await {
             let mut state = s.state();
             for e in batch.events {
                 if let Event::BranchDecision {
@@ -52,25 +47,20 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
                         probability,
                     )
                 {
-                    s.bus().reject(sample.key_expr().as_str(), &problem);
+                    s.bus().reject(&keys.key(&topics::EVENTS), &problem);
                 }
             }
         }
     });
 
-    let proposals = bus.subscribe(&keys.all_proposals()).await?;
+    let proposals = bus.subscribe_to(&topics::PROPOSALS).await?;
     let s = spawner.clone();
+    let keys = bus.keys().clone();
     tokio::spawn(async move {
-        while let Ok(sample) = proposals.recv_async().await {
-            let key = sample.key_expr().as_str();
-            let Some(batch) = s.bus().decode::<ProposalBatch>(&sample) else {
-                continue;
-            };
-            let Some(name) = Keys::simulator_of(key) else {
-                continue;
-            };
-            if let Err(problem) = s.state().set_proposals(name, batch) {
-                s.bus().reject(key, &problem);
+        while let Some((simulator, batch)) = proposals.next(s.bus()).await {
+            if let Err(problem) = s.state().set_proposals(&simulator, batch) {
+                s.bus()
+                    .reject(&keys.key_at(&topics::PROPOSALS, &simulator), &problem);
             }
         }
     });

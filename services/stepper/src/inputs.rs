@@ -4,6 +4,7 @@
 
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
+use trafficmesh_protocol::topics;
 
 use serde::de::DeserializeOwned;
 use tokio::sync::oneshot;
@@ -67,24 +68,42 @@ impl Shared {
 
 pub async fn start(bus: Arc<Bus>, tx: InputSender) -> Result<(), BusError> {
     let keys = bus.keys().clone();
-    forward(&bus, &keys.light_states(), &tx, Command::Light).await?;
     forward(
         &bus,
-        &keys.lights_heartbeat(),
+        &keys.key_all(&topics::LIGHT_STATE),
+        &tx,
+        Command::Light,
+    )
+    .await?;
+    forward(
+        &bus,
+        &keys.key(&topics::LIGHTS_HEARTBEAT),
         &tx,
         Command::LightsHeartbeat,
     )
     .await?;
-    forward(&bus, &keys.occupancies(), &tx, Command::Occupancy).await?;
     forward(
         &bus,
-        &keys.crosswalks_heartbeat(),
+        &keys.key_all(&topics::OCCUPANCY),
+        &tx,
+        Command::Occupancy,
+    )
+    .await?;
+    forward(
+        &bus,
+        &keys.key(&topics::CROSSWALKS_HEARTBEAT),
         &tx,
         Command::CrosswalksHeartbeat,
     )
     .await?;
-    forward(&bus, &keys.ego(), &tx, Command::Ego).await?;
-    forward(&bus, &keys.spawn_config(), &tx, Command::SpawnConfig).await?;
+    forward(&bus, &keys.key(&topics::EGO), &tx, Command::Ego).await?;
+    forward(
+        &bus,
+        &keys.key(&topics::SPAWN_CONFIG),
+        &tx,
+        Command::SpawnConfig,
+    )
+    .await?;
     serve(
         &bus,
         &keys.key(&trafficmesh_protocol::topics::STEPPER_SPAWN),
@@ -183,24 +202,33 @@ pub async fn fetch_late_states(bus: &Bus, tx: &InputSender) {
     let send = |key: String, command| {
         let _ = tx.send(Input { key, command });
     };
-    if let Ok(states) = bus.get_each::<LightState>(&keys.light_states(), wait).await {
+    if let Ok(states) = bus
+        .get_each::<LightState>(&keys.key_all(&topics::LIGHT_STATE), wait)
+        .await
+    {
         for s in states {
-            send(keys.light_state(&s.group), Command::Light(s));
+            send(
+                keys.key_at(&topics::LIGHT_STATE, &s.group),
+                Command::Light(s),
+            );
         }
     }
     if let Ok(states) = bus
-        .get_each::<CrosswalkOccupancy>(&keys.occupancies(), wait)
+        .get_each::<CrosswalkOccupancy>(&keys.key_all(&topics::OCCUPANCY), wait)
         .await
     {
         for o in states {
-            send(keys.occupancy(&o.area), Command::Occupancy(o));
+            send(
+                keys.key_at(&topics::OCCUPANCY, &o.area),
+                Command::Occupancy(o),
+            );
         }
     }
     if let Ok(mut configs) = bus
-        .get_each::<TrafficSpawnConfig>(&keys.spawn_config(), wait)
+        .get_each::<TrafficSpawnConfig>(&keys.key(&topics::SPAWN_CONFIG), wait)
         .await
         && let Some(c) = configs.pop()
     {
-        send(keys.spawn_config(), Command::SpawnConfig(c));
+        send(keys.key(&topics::SPAWN_CONFIG), Command::SpawnConfig(c));
     }
 }

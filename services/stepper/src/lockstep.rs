@@ -6,6 +6,7 @@
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use trafficmesh_protocol::topics;
 
 use trafficmesh_bus::Bus;
 use trafficmesh_protocol::wire::{LockstepTick, SpawnVerdict, TickReport};
@@ -29,7 +30,7 @@ pub struct Lockstep {
 impl Lockstep {
     pub fn new(bus: Arc<Bus>, runtime: tokio::runtime::Handle, required: Vec<String>) -> Self {
         Lockstep {
-            key: bus.keys().lockstep_members(),
+            key: bus.keys().key_all(&topics::LOCKSTEP_STEP),
             bus,
             runtime,
             required,
@@ -82,7 +83,9 @@ pub fn apply(
     answers: BTreeMap<String, TickReport>,
 ) {
     for (member, report) in answers {
-        let reject = |reason: String| bus.reject(&bus.keys().lockstep_member(&member), &reason);
+        let reject = |reason: String| {
+            bus.reject(&bus.keys().key_at(&topics::LOCKSTEP_STEP, &member), &reason)
+        };
         match report {
             TickReport::Lights { changed, heartbeat } => {
                 inputs.in_step.lights = true;

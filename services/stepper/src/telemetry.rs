@@ -4,6 +4,7 @@
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use trafficmesh_protocol::topics;
 
 use tokio::sync::mpsc;
 use trafficmesh_bus::{Bus, BusError, Lane};
@@ -125,14 +126,22 @@ pub fn wire_events(world: &World, events: Vec<SimEvent>) -> Vec<Event> {
 
 pub async fn start(bus: Arc<Bus>) -> Result<Outputs, BusError> {
     let keys = bus.keys();
-    let clock = bus.publisher(keys.clock(), Lane::Telemetry).await?;
+    let clock = bus
+        .publisher(keys.key(&topics::CLOCK), Lane::Telemetry)
+        .await?;
     let vehicles = bus
-        .binary_publisher(keys.vehicles(), Lane::Telemetry, vehicle_codec::SCHEMA)
+        .binary_publisher(
+            keys.key(&topics::VEHICLES),
+            Lane::Telemetry,
+            vehicle_codec::SCHEMA,
+        )
         .await?;
     // Events too are dropped for a subscriber that cannot keep up: a stalled
     // subscriber must never stall the stepper's publications (the clock
     // included, which the lights and crosswalks heartbeats follow).
-    let events = bus.publisher(keys.events(), Lane::Telemetry).await?;
+    let events = bus
+        .publisher(keys.key(&topics::EVENTS), Lane::Telemetry)
+        .await?;
     let (queue, mut rx) = mpsc::channel::<TickOutput>(2);
     tokio::spawn(async move {
         while let Some(out) = rx.recv().await {

@@ -15,7 +15,7 @@ use zenoh::sample::Sample;
 
 use crate::{BadPayloads, BusArgs, BusError, Role};
 use trafficmesh_protocol::Keys;
-use trafficmesh_protocol::topics::{Call, Topic};
+use trafficmesh_protocol::topics::{self, Call, Topic};
 
 /// Which delivery a publisher gets.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -56,7 +56,7 @@ impl Bus {
         let token = bus
             .session
             .liveliness()
-            .declare_token(bus.keys.alive(service))
+            .declare_token(bus.keys.key_at(&topics::ALIVE, service))
             .await?;
         bus._alive = Some(token);
         Ok(bus)

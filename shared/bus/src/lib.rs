@@ -10,6 +10,7 @@ mod ports;
 pub mod runtime;
 mod session;
 mod status;
+mod typed;
 
 pub use bus::{Bus, Lane, Publisher};
 pub use heartbeat::Vouch;
@@ -17,6 +18,7 @@ pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
 pub use status::{BadPayloads, another_map, check_map, serve_status};
+pub use typed::Subscription;
 
 use thiserror::Error;
 

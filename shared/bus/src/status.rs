@@ -5,6 +5,7 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::sync::Mutex;
 use std::time::Duration;
+use trafficmesh_protocol::topics;
 
 use trafficmesh_protocol::wire::ServiceStatus;
 
@@ -39,7 +40,7 @@ pub fn serve_status(
     details: Arc<dyn Fn() -> (f64, serde_json::Value) + Send + Sync>,
 ) {
     tokio::spawn(async move {
-        let key = bus.keys().status(bus.service());
+        let key = bus.keys().key_at(&topics::STATUS, bus.service());
         let (Ok(publisher), Ok(queryable)) = (
             bus.publisher(key.clone(), Lane::Reliable).await,
             bus.queryable(&key).await,
@@ -92,7 +93,7 @@ fn another_than(stepper: ServiceStatus, own: u64) -> Option<BusError> {
 /// the bus: an error when it runs another map than `own`. A stepper not (yet)
 /// answering is no error; [`another_map`] keeps watching.
 pub async fn check_map(bus: &Bus, own: u64) -> Result<(), BusError> {
-    let key = bus.keys().status("stepper");
+    let key = bus.keys().key_at(&topics::STATUS, "stepper");
     match bus
         .get::<(), ServiceStatus>(&key, None, Duration::from_secs(1))
         .await
@@ -106,7 +107,7 @@ pub async fn check_map(bus: &Bus, own: u64) -> Result<(), BusError> {
 /// its lane indices would name other lanes here, so the service must stop
 /// rather than talk to it. Never returns while the maps agree.
 pub async fn another_map(bus: &Bus, own: u64) -> BusError {
-    let key = bus.keys().status("stepper");
+    let key = bus.keys().key_at(&topics::STATUS, "stepper");
     let subscriber = match bus.subscribe(&key).await {
         Ok(s) => s,
         Err(e) => return e,

@@ -55,98 +55,21 @@ impl Keys {
     pub fn all(&self) -> String {
         self.key_of("**")
     }
-    pub fn clock(&self) -> String {
-        self.key(&CLOCK)
-    }
-    pub fn vehicles(&self) -> String {
-        self.key(&VEHICLES)
-    }
-    pub fn events(&self) -> String {
-        self.key(&EVENTS)
-    }
-    pub fn ego(&self) -> String {
-        self.key(&EGO)
-    }
-    pub fn spawn_config(&self) -> String {
-        self.key(&SPAWN_CONFIG)
-    }
-    pub fn light_state(&self, group: &str) -> String {
-        self.key_at(&LIGHT_STATE, group)
-    }
-    pub fn light_states(&self) -> String {
-        self.key_all(&LIGHT_STATE)
-    }
-    pub fn lights_heartbeat(&self) -> String {
-        self.key(&LIGHTS_HEARTBEAT)
-    }
-    pub fn lights_override(&self) -> String {
-        self.key(&LIGHTS_OVERRIDE)
-    }
-    pub fn occupancy(&self, area: &str) -> String {
-        self.key_at(&OCCUPANCY, area)
-    }
-    pub fn occupancies(&self) -> String {
-        self.key_all(&OCCUPANCY)
-    }
-    pub fn crosswalks_heartbeat(&self) -> String {
-        self.key(&CROSSWALKS_HEARTBEAT)
-    }
-    pub fn blocked_stop(&self) -> String {
-        self.key(&BLOCKED_STOP)
-    }
-    pub fn agents(&self, source: &str) -> String {
-        self.key_at(&AGENTS, source)
-    }
-    pub fn all_agents(&self) -> String {
-        self.key_all(&AGENTS)
-    }
-    pub fn proposals(&self, simulator: &str) -> String {
-        self.key_at(&PROPOSALS, simulator)
-    }
-    pub fn all_proposals(&self) -> String {
-        self.key_all(&PROPOSALS)
-    }
-    pub fn proposal_results(&self, simulator: &str) -> String {
-        self.key_at(&PROPOSAL_RESULTS, simulator)
-    }
-    pub fn status(&self, service: &str) -> String {
-        self.key_at(&STATUS, service)
-    }
-    pub fn all_status(&self) -> String {
-        self.key_all(&STATUS)
-    }
-    pub fn alive(&self, service: &str) -> String {
-        self.key_at(&ALIVE, service)
-    }
-    pub fn all_alive(&self) -> String {
-        self.key_all(&ALIVE)
-    }
-    /// Where a lockstep member answers the stepper's tick query.
-    pub fn lockstep_member(&self, member: &str) -> String {
-        self.key_at(&LOCKSTEP_STEP, member)
-    }
-    pub fn lockstep_members(&self) -> String {
-        self.key_all(&LOCKSTEP_STEP)
-    }
-    /// Where an agent source in lockstep answers the crosswalks' tick query.
-    pub fn lockstep_agents(&self, source: &str) -> String {
-        self.key_at(&LOCKSTEP_AGENTS, source)
-    }
-    pub fn lockstep_all_agents(&self) -> String {
-        self.key_all(&LOCKSTEP_AGENTS)
-    }
 
     /// The last chunk of a key (a light group, an area, a service).
     pub fn last_chunk(key: &str) -> &str {
         key.rsplit('/').next().unwrap_or(key)
     }
 
-    /// The simulator name of a proposals key.
-    pub fn simulator_of(key: &str) -> Option<&str> {
-        let mut parts = key.rsplit('/');
-        (parts.next() == Some("proposals"))
-            .then(|| parts.next())
-            .flatten()
+    /// The named chunk of a key of declaration `d` (`simulators/{name}/proposals`
+    /// gives the simulator's name); the last chunk of a key without one.
+    pub fn name_in<'k>(d: &impl Pattern, key: &'k str) -> &'k str {
+        let pattern = d.pattern();
+        match pattern.split('/').position(|chunk| chunk.starts_with('{')) {
+            // The cluster's chunk comes first in the key.
+            Some(i) => key.split('/').nth(i + 1).unwrap_or(key),
+            None => Self::last_chunk(key),
+        }
     }
 }
 
@@ -177,11 +100,17 @@ mod tests {
             assert!(Keys::new(bad).is_err(), "{bad:?} accepted");
         }
         let k = Keys::new("demo").unwrap();
-        assert_eq!(k.light_state("J0_0_NS"), "demo/lights/state/J0_0_NS");
         assert_eq!(
-            Keys::simulator_of("demo/simulators/py/proposals"),
-            Some("py")
+            k.key_at(&LIGHT_STATE, "J0_0_NS"),
+            "demo/lights/state/J0_0_NS"
         );
+        assert_eq!(k.key_all(&LIGHT_STATE), "demo/lights/state/*");
+        assert_eq!(k.key(&CLOCK), "demo/clock");
+        assert_eq!(
+            Keys::name_in(&PROPOSALS, "demo/simulators/py/proposals"),
+            "py"
+        );
+        assert_eq!(Keys::name_in(&AGENTS, "demo/agents/walkers"), "walkers");
         assert_eq!(Keys::last_chunk("demo/status/stepper"), "stepper");
     }
 }

@@ -10,8 +10,8 @@ use std::sync::Arc;
 use anyhow::Result;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
-use trafficmesh_protocol::Keys;
 use trafficmesh_protocol::wire::{Clock, LockstepTick};
+use trafficmesh_protocol::{Keys, topics};
 
 use crate::MapArgs;
 
@@ -66,7 +66,7 @@ pub trait Service: Send + Sync + Sized + 'static {
 
     /// Where its lockstep questions come.
     fn lockstep_key(keys: &Keys) -> String {
-        keys.lockstep_member(Self::NAME)
+        keys.key_at(&topics::LOCKSTEP_STEP, Self::NAME)
     }
 
     /// After a stop signal or the end of the clock: last writes.
@@ -105,8 +105,8 @@ async fn follow<S: Service>(bus: &Arc<Bus>, service: &Arc<S>, lockstep: bool) ->
             .await?;
         return Ok(());
     }
-    let clock = bus.subscribe(&bus.keys().clock()).await?;
-    while let Some(c) = bus.next_latest::<Clock>(&clock).await {
+    let clock = bus.subscribe_to(&topics::CLOCK).await?;
+    while let Some(c) = clock.latest(bus).await {
         service.on_clock(bus, c).await?;
     }
     Ok(())

@@ -104,7 +104,7 @@ pub async fn override_light(
         color: o.color,
         program: o.program,
     };
-    let key = app.bus.keys().lights_override();
+    let key = app.bus.keys().key(&topics::LIGHTS_OVERRIDE);
     let state: LightState = app.bus.get(&key, Some(&request), app.bus_timeout).await?;
     Ok(Json(light_view(&group, Some(&state))))
 }
@@ -185,7 +185,7 @@ pub async fn blocked_stop(
         y: p.y,
         yaw: p.yaw,
     };
-    let key = app.bus.keys().blocked_stop();
+    let key = app.bus.keys().key(&topics::BLOCKED_STOP);
     let a: BlockedStopAnswer = app.bus.get(&key, Some(&query), app.bus_timeout).await?;
     Ok(Json(BlockedStop {
         blocked: a.blocked,

@@ -7,6 +7,7 @@ use axum::http::header;
 use axum::response::IntoResponse;
 use serde::Serialize;
 use trafficmesh_model::TrafficSpawnConfig;
+use trafficmesh_protocol::topics;
 use utoipa::ToSchema;
 
 use super::AppState;
@@ -16,7 +17,7 @@ use crate::problem::{ApiJson, Problem};
 #[utoipa::path(get, path = "/api/v1/spawn-config", tag = "spawn config",
     responses((status = 200, body = serde_json::Value, description = "the AWSIM reference's traffic_spawn.json: spawnRates [{lane, spawnsPerMinute}], branchWeights [{fromLane, next: [{lane, weight}]}]"), (status = 503, body = Problem)))]
 pub async fn get_config(State(app): AppState) -> Result<Json<TrafficSpawnConfig>, Problem> {
-    let key = app.bus.keys().spawn_config();
+    let key = app.bus.keys().key(&topics::SPAWN_CONFIG);
     Ok(Json(
         app.bus.get::<(), _>(&key, None, app.bus_timeout).await?,
     ))

@@ -7,6 +7,7 @@
 //! client waiting for it (no coordinated omission).
 
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use anyhow::{Context, Result, bail};
 use clap::Args;
@@ -195,7 +196,7 @@ fn load(base: &str, a: &AdminArgs) -> (Vec<f64>, usize, f64) {
 fn watch_ticks(args: &BusArgs, seconds: f64) -> Result<(f64, Vec<f64>)> {
     trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async {
         let bus = Bus::open(args, Role::Member, "bench").await?;
-        let clock = bus.subscribe(&bus.keys().clock()).await?;
+        let clock = bus.subscribe(&bus.keys().key(&topics::CLOCK)).await?;
         let start = Instant::now();
         let end = start + Duration::from_secs_f64(seconds);
         let (mut first, mut last, mut tick_ms) = (None, 0u64, Vec::new());

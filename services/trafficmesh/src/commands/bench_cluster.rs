@@ -5,6 +5,7 @@
 //! publication of a batch to its arrival here; plus what encoding a batch costs.
 
 use std::time::{Duration, Instant};
+use trafficmesh_protocol::topics;
 
 use anyhow::{Context, Result, bail};
 
@@ -119,8 +120,8 @@ fn measure(a: &ClusterArgs, args: &BusArgs) -> Result<Report> {
     trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async {
         let bus = Bus::open(args, Role::Member, "bench").await?;
         let keys = bus.keys().clone();
-        let vehicles = bus.subscribe(&keys.vehicles()).await?;
-        let clock = bus.subscribe(&keys.clock()).await?;
+        let vehicles = bus.subscribe(&keys.key(&topics::VEHICLES)).await?;
+        let clock = bus.subscribe(&keys.key(&topics::CLOCK)).await?;
         // Warm-up: the map loaded and the vehicles placed.
         let warm = Instant::now() + Duration::from_secs(120);
         loop {

@@ -1,6 +1,7 @@
 //! `trafficmesh ego`: publishes the ego vehicle's pose on the bus.
 
 use std::time::Duration;
+use trafficmesh_protocol::topics;
 
 use anyhow::{Result, bail};
 use clap::Args;
@@ -45,7 +46,9 @@ pub fn run(a: EgoArgs) -> Result<()> {
     a.bus.keys()?;
     trafficmesh_bus::runtime::tokio_runtime(1)?.block_on(async move {
         let bus = Bus::open(&a.bus, Role::Member, "ego").await?;
-        let publisher = bus.publisher(bus.keys().ego(), Lane::Reliable).await?;
+        let publisher = bus
+            .publisher(bus.keys().key(&topics::EGO), Lane::Reliable)
+            .await?;
         // A put nobody hears is lost: wait for the subscribers first.
         let deadline = tokio::time::Instant::now() + Duration::from_secs(5);
         while !publisher.has_subscribers().await {

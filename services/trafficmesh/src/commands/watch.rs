@@ -2,6 +2,7 @@
 
 use std::collections::BTreeMap;
 use std::time::Duration;
+use trafficmesh_protocol::topics;
 
 use anyhow::Result;
 use clap::Args;
@@ -25,16 +26,16 @@ pub fn run(a: WatchArgs) -> Result<()> {
         .block_on(async move {
             let bus = Bus::open(&a.bus, Role::Member, "watch").await?;
             let keys = bus.keys().clone();
-            let clock = bus.subscribe(&keys.clock()).await?;
-            let lights = bus.subscribe(&keys.light_states()).await?;
-            let crossings = bus.subscribe(&keys.occupancies()).await?;
+            let clock = bus.subscribe(&keys.key(&topics::CLOCK)).await?;
+            let lights = bus.subscribe(&keys.key_all(&topics::LIGHT_STATE)).await?;
+            let crossings = bus.subscribe(&keys.key_all(&topics::OCCUPANCY)).await?;
             let mut light_colors: BTreeMap<String, LightColor> = BTreeMap::new();
             let mut occupied: BTreeMap<String, bool> = BTreeMap::new();
             bus.wait_for_peer(Duration::from_secs(2)).await;
-            for s in current::<LightState>(&bus, &keys.light_states()).await? {
+            for s in current::<LightState>(&bus, &keys.key_all(&topics::LIGHT_STATE)).await? {
                 light_colors.insert(s.group, s.color);
             }
-            for o in current::<CrosswalkOccupancy>(&bus, &keys.occupancies()).await? {
+            for o in current::<CrosswalkOccupancy>(&bus, &keys.key_all(&topics::OCCUPANCY)).await? {
                 occupied.insert(o.area, o.occupied);
             }
             let mut last: Option<Clock> = None;
@@ -80,7 +81,7 @@ async fn services(bus: &Bus, keys: &Keys) -> Vec<String> {
     if let Ok(replies) = bus
         .session()
         .liveliness()
-        .get(keys.all_alive())
+        .get(keys.key_all(&topics::ALIVE))
         .timeout(Duration::from_millis(300))
         .await
     {
