@@ -42,6 +42,7 @@ enum Command {
     /// Publish an ego vehicle pose on the bus.
     Ego(commands::ego::EgoArgs),
     /// Benchmarks that print their figures.
+    #[cfg(feature = "bench")]
     #[command(subcommand)]
     Bench(commands::bench::BenchCommand),
 }
@@ -53,6 +54,7 @@ fn main() -> ExitCode {
         Command::Sim(args) => commands::sim::run(args),
         Command::GenGrid(args) => commands::gen_grid::run(args),
         Command::Import(args) => commands::import::run(args),
+        #[cfg(feature = "bench")]
         Command::Bench(cmd) => commands::bench::run(cmd),
         Command::Up(args) => commands::up::run(args),
         Command::Watch(args) => commands::watch::run(args),

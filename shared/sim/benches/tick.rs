@@ -1,5 +1,5 @@
 //! One tick at 1k, 10k and 100k vehicles on a generated signalised grid.
-//! `cargo bench -p trafficmesh-sim --bench tick`
+//! `cargo bench -p trafficmesh-sim --features bench --bench tick`
 
 use std::time::Instant;
 

@@ -4,7 +4,7 @@
 //! vehicles standing at its start (the grid's lights pulse, so that number
 //! swings over each cycle).
 //!
-//! `cargo run --release -p trafficmesh-sim --example standing_cost` (pin it with
+//! `cargo run --release -p trafficmesh-sim --features bench --example standing_cost` (pin it with
 //! `taskset -c 1` on a busy host).
 
 use std::time::Instant;

@@ -28,6 +28,7 @@ mod lookahead;
 pub mod network;
 mod parallel;
 pub mod pedestrians;
+#[cfg(any(test, feature = "bench"))]
 pub mod populate;
 mod prefetch;
 mod rng;

@@ -1,13 +1,20 @@
+#[cfg(feature = "bench")]
 pub mod bench;
+#[cfg(feature = "bench")]
 pub mod bench_admin;
+#[cfg(feature = "bench")]
 pub mod bench_cluster;
+#[cfg(feature = "bench")]
 pub mod bench_saturation;
+#[cfg(feature = "bench")]
 mod bench_up;
+#[cfg(feature = "bench")]
 pub mod bench_vs_sumo;
 pub mod cluster_config;
 pub mod ego;
 pub mod gen_grid;
 pub mod import;
+#[cfg(feature = "bench")]
 mod memory;
 pub mod sim;
 pub mod up;

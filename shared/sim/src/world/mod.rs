@@ -32,6 +32,8 @@ use crate::vehicle::{Vehicle, VehicleId};
 
 pub use crate::parallel::MIN_VEHICLES_PER_TASK;
 pub use jams::{STUCK_AFTER, WaitStats};
+use phases::PhaseTimes as TickTiming;
+#[cfg(feature = "bench")]
 pub use phases::{Phase, PhaseTimes};
 pub use spawning::{QueuedSpawn, SpawnRejection};
 
@@ -132,7 +134,7 @@ pub struct World {
     branch_stats: BranchStats,
     next_id: VehicleId,
     events: Vec<SimEvent>,
-    phase_times: PhaseTimes,
+    phase_times: TickTiming,
     wait_stats: jams::WaitStats,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
@@ -171,7 +173,7 @@ impl World {
             branch_stats: BranchStats::default(),
             next_id: 0,
             events: Vec::new(),
-            phase_times: PhaseTimes::default(),
+            phase_times: TickTiming::default(),
             wait_stats: jams::WaitStats::default(),
             walkers: None,
         }
@@ -189,10 +191,12 @@ impl World {
     }
 
     /// Time per tick phase, accumulated once enabled with [`World::phase_times_mut`].
+    #[cfg(feature = "bench")]
     pub fn phase_times(&self) -> &PhaseTimes {
         &self.phase_times
     }
 
+    #[cfg(feature = "bench")]
     pub fn phase_times_mut(&mut self) -> &mut PhaseTimes {
         &mut self.phase_times
     }

@@ -1,5 +1,6 @@
 //! Optional wall-clock time per tick phase, for `bench tick --phases`: where a
-//! tick's time goes, and how much of it runs on one thread only.
+//! tick's time goes, and how much of it runs on one thread only. Only the
+//! `bench` feature can turn it on; without it no clock is ever read.
 
 use std::time::{Duration, Instant};
 
@@ -34,6 +35,7 @@ impl Phase {
         Phase::Regroup,
     ];
 
+    #[cfg(feature = "bench")]
     pub fn name(self) -> &'static str {
         match self {
             Phase::Regroup => "regroup",
@@ -51,6 +53,7 @@ impl Phase {
     }
 
     /// Whether the phase runs on the thread pool (the others run on one thread).
+    #[cfg(feature = "bench")]
     pub fn parallel(self) -> bool {
         matches!(self, Phase::FollowLanes | Phase::Cognition | Phase::Motion)
     }
@@ -65,21 +68,25 @@ pub struct PhaseTimes {
 }
 
 impl PhaseTimes {
+    #[cfg(feature = "bench")]
     pub fn enable(&mut self) {
         self.enabled = true;
     }
 
     /// Time accumulated in each phase since timing was enabled or reset.
+    #[cfg(feature = "bench")]
     pub fn totals(&self) -> impl Iterator<Item = (Phase, Duration)> + '_ {
         Phase::ALL.iter().map(|&p| (p, self.totals[p as usize]))
     }
 
+    #[cfg(feature = "bench")]
     pub fn reset(&mut self) {
         self.totals = Default::default();
     }
 
     pub(super) fn begin(&mut self) {
-        if self.enabled {
+        // Without the `bench` feature nothing can enable it: no clock is read.
+        if cfg!(feature = "bench") && self.enabled {
             self.lap_start = Some(Instant::now());
         }
     }
