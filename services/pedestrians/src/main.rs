@@ -24,6 +24,7 @@ use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 struct Args {
     #[command(flatten)]
     service: ServiceArgs,
+    /// Random seed of the crossings.
     #[arg(long, default_value_t = 0)]
     seed: u64,
     #[command(flatten)]
@@ -49,12 +50,7 @@ fn batch(people: &Pedestrians, time: f64) -> AgentBatch {
         .map(|a| Agent {
             id: a.id,
             root: a.root,
-            kind: match a.kind {
-                trafficmesh_sim::crosswalk::OccupantType::SimpleCyclistMovement => {
-                    "SimpleCyclistMovement".into()
-                }
-                _ => "NPCPedestrian".into(),
-            },
+            kind: a.kind.name().into(),
             footprint: a.footprint.iter().map(|p| [p.x, p.y]).collect(),
         })
         .collect();

@@ -30,6 +30,18 @@ impl OccupantType {
             _ => Self::Other,
         }
     }
+    /// The AWSIM reference's name of the type (what `parse` reads back).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::NpcPedestrian => "NPCPedestrian",
+            Self::SimpleCyclistMovement => "SimpleCyclistMovement",
+            Self::BicycleMoveRotate => "BicycleMoveRotate",
+            Self::ClearWaypointFollower => "ClearWaypointFollower",
+            Self::WaypointFollower => "WaypointFollower",
+            Self::Other => "Other",
+        }
+    }
+
     pub fn is_detected(self) -> bool {
         self != Self::Other
     }
