@@ -169,9 +169,11 @@ fn weights_2_to_1_give_2_to_1_frequencies() {
         let f = net.lane_id(&format!("F{k}")).unwrap();
         a += w
             .branch_stats()
+            .expect("a world with simulators keeps them")
             .count(f, net.lane_id(&format!("F{k}_a")).unwrap());
         b += w
             .branch_stats()
+            .expect("a world with simulators keeps them")
             .count(f, net.lane_id(&format!("F{k}_b")).unwrap());
     }
     let n = (a + b) as f64;
@@ -352,4 +354,26 @@ fn restart_with_a_new_seed_changes_what_follows_deterministically() {
     assert_eq!(run(Some(9)), run(Some(9)), "the same seed, the same run");
     assert_ne!(run(Some(9)), run(None), "a new seed, other traffic");
     assert_eq!(run(None), run(None));
+}
+
+#[test]
+fn a_world_without_simulators_leaves_the_branch_statistics_to_the_spawner() {
+    // The stepper's world: the spawner service keeps the only statistics,
+    // from the decisions the world reports as events.
+    let mut w = world(&forks(), WorldConfig::default()).without_simulators();
+    for k in 0..4 {
+        w.place_vehicle("Taxi", &format!("F{k}"), 250.0, 10.0)
+            .unwrap();
+    }
+    let mut decisions = 0;
+    for _ in 0..500 {
+        w.step();
+        decisions += w
+            .drain_events()
+            .filter(|e| matches!(e, SimEvent::BranchDecision { .. }))
+            .count();
+    }
+    assert_eq!(decisions, 4, "each vehicle chose a branch once");
+    assert!(w.branch_stats().is_none());
+    assert_eq!(w.branch_csv().lines().count(), 1, "the header alone");
 }

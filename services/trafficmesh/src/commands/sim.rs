@@ -292,7 +292,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         stuck_vehicles: world.stuck_vehicles(),
         jam_resolutions: waits.jam_resolutions,
         jam_removals: waits.jam_removals,
-        branch_decisions: world.branch_stats().total(),
+        branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
     };
     if a.json {

@@ -83,7 +83,9 @@ impl World {
         decisions.sort_by_key(|&(id, _)| id);
         for (id, made) in decisions {
             for choice in made {
-                self.branch_stats.record(&choice);
+                if let Some(stats) = &mut self.branch_stats {
+                    stats.record(&choice);
+                }
                 self.events.push(SimEvent::BranchDecision { id, choice });
             }
         }

@@ -131,7 +131,9 @@ pub struct World {
     spawn_results: Vec<Result<VehicleId, SpawnRejection>>,
     spawn_config: Option<TrafficSpawnConfig>,
     branch_policy: BranchPolicy,
-    branch_stats: BranchStats,
+    /// None where another process keeps them (the spawner service, from
+    /// the BranchDecision events): one set of branch statistics per run.
+    branch_stats: Option<BranchStats>,
     next_id: VehicleId,
     events: Vec<SimEvent>,
     phase_times: TickTiming,
@@ -170,7 +172,7 @@ impl World {
             spawn_results: Vec::new(),
             spawn_config: None,
             branch_policy: BranchPolicy::none(),
-            branch_stats: BranchStats::default(),
+            branch_stats: Some(BranchStats::default()),
             next_id: 0,
             events: Vec::new(),
             phase_times: TickTiming::default(),
@@ -235,12 +237,18 @@ impl World {
     pub fn occupancy(&self) -> &Occupancy {
         &self.occupancy
     }
-    pub fn branch_stats(&self) -> &BranchStats {
-        &self.branch_stats
+    /// The branch statistics, unless the world runs without simulators
+    /// (then the spawner service keeps them).
+    pub fn branch_stats(&self) -> Option<&BranchStats> {
+        self.branch_stats.as_ref()
     }
-    /// The branch-decision CSV (header and one row per from, to, mode).
+    /// The branch-decision CSV (header and one row per from, to, mode);
+    /// the header alone when the world keeps no statistics.
     pub fn branch_csv(&self) -> String {
-        self.branch_stats.to_csv(&self.net)
+        self.branch_stats.as_ref().map_or_else(
+            || BranchStats::default().to_csv(&self.net),
+            |s| s.to_csv(&self.net),
+        )
     }
     pub fn spawn_stats(&self) -> &SpawnStats {
         self.spawner.stats()
@@ -248,9 +256,11 @@ impl World {
 
     /// Drops every simulator, the map's included: vehicles then only arrive
     /// through [`World::admit_spawn`] (the stepper's case, where the spawner
-    /// service runs the simulators).
+    /// service runs the simulators and keeps the branch statistics from the
+    /// BranchDecision events; the world keeps none of its own).
     pub fn without_simulators(mut self) -> Self {
         self.spawner = SpawnManager::new(&self.net, self.config.seed, false);
+        self.branch_stats = None;
         self
     }
     /// Events since the last call.
