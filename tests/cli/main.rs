@@ -354,6 +354,39 @@ fn sim_json_reports_insertion_arrival_waiting_and_jams() {
     );
 }
 
+/// `sim --check` watches every tick: on the sample map and a generated grid
+/// (native geometry, the reference's rules) no pose jumps or turns faster
+/// than a car can, no bodies overlap and nobody speeds.
+#[test]
+fn sim_check_finds_continuous_motion_on_native_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    for (map, vehicles) in [
+        (repo_file("configs/maps/four_way.map.json"), "40"),
+        (grid(dir.path(), 3), "120"),
+    ] {
+        let v = sim_json(
+            &map,
+            &["--duration", "300", "--max-vehicles", vehicles, "--check"],
+        );
+        let check = &v["check"];
+        assert_eq!(check["ticks"], v["ticks"], "every tick is checked: {check}");
+        assert!(check["vehicle_steps"].as_u64().unwrap() > 10_000, "{check}");
+        for what in ["jumps", "turns", "overlaps", "speeding"] {
+            assert_eq!(
+                check[what]["count"],
+                0,
+                "{what} on {}: {check}",
+                map.display()
+            );
+        }
+    }
+    let plain = sim_json(
+        &repo_file("configs/maps/four_way.map.json"),
+        &["--duration", "10"],
+    );
+    assert!(plain.get("check").is_none(), "only with --check");
+}
+
 /// The README stays the front door: short, opening with the command that
 /// runs the cluster and the very test command CI runs, naming only
 /// subcommands the binary has and docs files that exist.

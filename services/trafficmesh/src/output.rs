@@ -4,6 +4,7 @@ use std::path::Path;
 
 use anyhow::Result;
 use serde::Serialize;
+use trafficmesh_sim::motion_check::{MotionCheck, Tally};
 use trafficmesh_sim::{TripRecord, World};
 
 /// trips.csv: one row per vehicle, finished trips first, then those still driving
@@ -83,4 +84,33 @@ fn print_value(key: &str, value: serde_json::Value) {
         serde_json::Value::String(s) => println!("{key:>22}: {s}"),
         other => println!("{key:>22}: {other}"),
     }
+}
+
+/// `sim --check`'s findings as JSON: per check the failing vehicle-ticks
+/// (pair-ticks for overlaps), the distinct vehicles (pairs), the largest
+/// excess over the bound and the first examples.
+pub fn check_report(check: &MotionCheck) -> serde_json::Value {
+    let tally = |t: &Tally| {
+        serde_json::json!({
+            "count": t.count,
+            "distinct": t.distinct,
+            "max_excess": t.max_excess,
+            "first": t.first.iter().map(|f| serde_json::json!({
+                "time": f.time,
+                "vehicle": f.vehicle,
+                "other": f.other,
+                "lane": f.lane,
+                "value": f.value,
+                "bound": f.bound,
+            })).collect::<Vec<_>>(),
+        })
+    };
+    serde_json::json!({
+        "ticks": check.ticks,
+        "vehicle_steps": check.vehicle_steps,
+        "jumps": tally(&check.jumps),
+        "turns": tally(&check.turns),
+        "overlaps": tally(&check.overlaps),
+        "speeding": tally(&check.speeding),
+    })
 }

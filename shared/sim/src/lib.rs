@@ -25,6 +25,7 @@ pub mod lane_change;
 mod lane_index;
 pub mod lights;
 mod lookahead;
+pub mod motion_check;
 pub mod network;
 mod parallel;
 pub mod pedestrians;

@@ -39,7 +39,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         ],
     ),
     ("world", &["world"]),
-    ("tools", &["populate"]),
+    ("tools", &["populate", "motion_check"]),
 ];
 
 fn layer_of(module: &str) -> Option<usize> {

@@ -8,6 +8,7 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 use trafficmesh_model::{DriverModel, NpcVehicleConfig};
+use trafficmesh_sim::motion_check::MotionCheck;
 use trafficmesh_sim::{DespawnReason, SimEvent, TripRecord, World, WorldConfig};
 
 use super::thread_pool;
@@ -77,6 +78,13 @@ pub struct SimArgs {
     /// them cyclists, deterministic by seed); 0 = none.
     #[arg(long, default_value_t = trafficmesh_sim::pedestrians::PedestrianConfig::default().per_minute, allow_negative_numbers = true)]
     pedestrians: f64,
+    /// Check every tick's motion as a viewer of the vehicle batch would:
+    /// poses that move further than speed x dt + 5 cm, headings that turn
+    /// faster than a 4 m turning radius allows, overlapping bodies, speeds
+    /// over the limit in force. Counts and first examples go in the summary
+    /// (`check`); slower.
+    #[arg(long)]
+    check: bool,
 }
 
 #[derive(Serialize)]
@@ -114,6 +122,9 @@ struct Summary {
     jam_removals: u64,
     branch_decisions: u64,
     trajectory_hash: String,
+    /// With --check: what the motion checks found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    check: Option<serde_json::Value>,
 }
 
 /// The longest a run to the end of its demand goes on, simulated seconds.
@@ -217,10 +228,14 @@ pub fn run(a: SimArgs) -> Result<()> {
     let mut trips: Vec<TripRecord> = Vec::new();
     let (mut vehicle_steps, mut peak, mut spawned, mut despawned) = (0u64, 0usize, 0u64, 0u64);
     let mut arrived = 0u64;
+    let mut check = a.check.then(MotionCheck::default);
     let started = Instant::now();
     pool.install(|| {
         for tick in 0..ticks {
             world.step();
+            if let Some(check) = &mut check {
+                check.observe(&world);
+            }
             let n = world.vehicles().len();
             vehicle_steps += n as u64;
             peak = peak.max(n);
@@ -294,6 +309,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         jam_removals: waits.jam_removals,
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
+        check: check.as_ref().map(output::check_report),
     };
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);

@@ -2,10 +2,8 @@
 //! them, and checks shared by several tests.
 #![allow(dead_code)]
 
-use glam::DVec2;
 use serde_json::{Value, json};
 use trafficmesh_model::MapFile;
-use trafficmesh_sim::geometry::{box_corners, boxes_overlap};
 use trafficmesh_sim::{LaneNetwork, Vehicle, World, WorldConfig};
 
 /// A lane as JSON: name, waypoints, next lanes.
@@ -84,51 +82,10 @@ pub fn run_for(world: &mut World, seconds: f64) {
     run_until(world, seconds, |_| false);
 }
 
-/// The vehicle's footprint, shrunk by `margin` on every side: the centreline
-/// model approximates a rigid body on curves to a few centimetres.
-pub fn footprint(v: &Vehicle, margin: f64) -> [DVec2; 4] {
-    let heading = DVec2::from_angle(v.pose.yaw);
-    let center = DVec2::new(v.pose.x, v.pose.y) + heading * (v.front_offset - v.length * 0.5);
-    box_corners(
-        center,
-        v.pose.yaw,
-        v.length * 0.5 - margin,
-        v.width * 0.5 - margin,
-    )
-}
-
-/// Pairs of vehicles whose footprints overlap (spatial hashing, not all pairs).
+/// Pairs of vehicles (by id) whose footprints overlap: the check `sim --check` makes.
 pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
-    use std::collections::HashMap;
-    const CELL: f64 = 10.0;
-    let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
-    for (i, v) in vehicles.iter().enumerate() {
-        let key = (
-            (v.pose.x / CELL).floor() as i64,
-            (v.pose.y / CELL).floor() as i64,
-        );
-        cells.entry(key).or_default().push(i);
-    }
-    let mut pairs = Vec::new();
-    for (i, v) in vehicles.iter().enumerate() {
-        let (cx, cy) = (
-            (v.pose.x / CELL).floor() as i64,
-            (v.pose.y / CELL).floor() as i64,
-        );
-        let a = footprint(v, margin);
-        for dx in -1..=1 {
-            for dy in -1..=1 {
-                for &j in cells
-                    .get(&(cx + dx, cy + dy))
-                    .map(Vec::as_slice)
-                    .unwrap_or(&[])
-                {
-                    if j > i && boxes_overlap(&a, &footprint(&vehicles[j], margin)) {
-                        pairs.push((v.id, vehicles[j].id));
-                    }
-                }
-            }
-        }
-    }
-    pairs
+    trafficmesh_sim::motion_check::overlapping_pairs(vehicles, margin)
+        .into_iter()
+        .map(|(i, j)| (vehicles[i].id, vehicles[j].id))
+        .collect()
 }
