@@ -192,3 +192,55 @@ fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
     );
     assert!(v.speed < 0.1, "it waits");
 }
+
+/// Keep clear also behind a car still rolling onto the exit: if it will come
+/// to rest too near the exit's start to leave room (here behind a zebra
+/// crossing a walker holds), the vehicle waits before the box instead of
+/// following it in and standing across the junction.
+#[test]
+fn a_vehicle_does_not_follow_a_car_into_the_box_that_will_stop_at_its_exit() {
+    let mut junction = lane("junction", &[[400.0, 0.0], [420.0, 0.0]], &["exit"]);
+    junction["intersection"] = json!(true);
+    let lanes = vec![
+        lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]),
+        junction,
+        lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]),
+    ];
+    let m = map(
+        lanes,
+        json!({
+            "crosswalks": [{
+                "name": "Zebra",
+                "area": { "shape": "box", "center": [432.0, 0.0], "half_extents": [2.0, 6.0] },
+                "stop_points": [{ "position": [428.0, 0.0] }]
+            }]
+        }),
+    );
+    let realistic = WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model: trafficmesh_model::DriverModel::by_name("realistic").unwrap(),
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    let mut w = world(&m, realistic);
+    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+        .unwrap();
+    // Rolling at 5 m/s with its rear 0.5 m into the exit: it stops at the zebra.
+    let rolling = w
+        .place_vehicle_on_route("Taxi", &["exit"], 5.0, 5.0)
+        .unwrap();
+    let id = w
+        .place_vehicle_on_route("Taxi", &["east", "junction", "exit"], 380.0, 12.0)
+        .unwrap();
+    run_for(&mut w, 30.0);
+    assert!(vehicle(&w, rolling).speed < 0.1, "the rolling car stopped");
+    let v = vehicle(&w, id);
+    assert_eq!(
+        w.network().lane(v.path[0]).name,
+        "east",
+        "it followed into the box: on {} at s {:.1}",
+        w.network().lane(v.path[0]).name,
+        v.s
+    );
+}

@@ -20,8 +20,6 @@ use crate::vehicle::{Vehicle, VehicleId};
 /// its stop distance at standstill), so that one who enters clears the junction.
 const EXIT_ROOM_MARGIN: f64 =
     crate::decision::MIN_FRONT_VEHICLE_DISTANCE + 3.0 * crate::decision::MIN_STOP_DISTANCE;
-/// Vehicles on the exit lane slower than this count as not making room.
-const EXIT_MOVING_SPEED: f64 = 3.0;
 
 /// The nearest body ahead: along-path metres to it and, when it is another
 /// vehicle, that vehicle's index (deadlock breaking follows these waits).
@@ -271,7 +269,9 @@ fn exit_blocked_by(snap: &Snapshot, v: &Vehicle, k: usize) -> Option<u32> {
         trafficmesh_model::DriverModel::Awsim => EXIT_ROOM_MARGIN,
         trafficmesh_model::DriverModel::Realistic(idm) => idm.min_gap + 0.5,
     };
-    let room = occ.rear >= v.length + margin || occ.speed >= EXIT_MOVING_SPEED;
+    // Where the last one on the exit comes to rest if it brakes hard now.
+    let rests_at = occ.rear + occ.speed * occ.speed / (2.0 * snap.config.sudden_deceleration);
+    let room = rests_at >= v.length + margin;
     (!room).then_some(occ.vehicle)
 }
 
