@@ -10,9 +10,7 @@ use trafficmesh_protocol::topics;
 
 use anyhow::Result;
 use trafficmesh_bus::Bus;
-use trafficmesh_protocol::wire::{
-    Clock, CrosswalkOccupancy, EventBatch, LightState, ServiceStatus,
-};
+use trafficmesh_protocol::wire::{Clock, CrosswalkOccupancy, LightState, ServiceStatus};
 use zenoh::bytes::ZBytes;
 use zenoh::sample::SampleKind;
 
@@ -79,50 +77,42 @@ impl ClusterView {
         });
 
         // Events only feed the counters; every batch counts, so no ring here.
-        let events = bus.subscribe(&keys.key(&topics::EVENTS)).await?;
+        let events = bus.subscribe_to(&topics::EVENTS).await?;
         let b = bus.clone();
         tokio::spawn(async move {
-            while let Ok(sample) = events.recv_async().await {
-                if let Some(batch) = b.decode::<EventBatch>(&sample) {
-                    metrics::record_events(&batch.events);
-                }
+            while let Some((_, batch)) = events.next(&b).await {
+                metrics::record_events(&batch.events);
             }
         });
 
-        let lights = bus.subscribe(&keys.key_all(&topics::LIGHT_STATE)).await?;
+        let lights = bus.subscribe_to(&topics::LIGHT_STATE).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
-            while let Ok(sample) = lights.recv_async().await {
-                if let Some(s) = b.decode::<LightState>(&sample) {
-                    let mut v = view.write();
-                    v.lights.insert(s.group.clone(), s);
-                    v.states_version += 1;
-                }
+            while let Some((_, s)) = lights.next(&b).await {
+                let mut v = view.write();
+                v.lights.insert(s.group.clone(), s);
+                v.states_version += 1;
             }
         });
 
-        let occupancy = bus.subscribe(&keys.key_all(&topics::OCCUPANCY)).await?;
+        let occupancy = bus.subscribe_to(&topics::OCCUPANCY).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
-            while let Ok(sample) = occupancy.recv_async().await {
-                if let Some(o) = b.decode::<CrosswalkOccupancy>(&sample) {
-                    let mut v = view.write();
-                    v.occupancy.insert(o.area.clone(), o);
-                    v.states_version += 1;
-                }
+            while let Some((_, o)) = occupancy.next(&b).await {
+                let mut v = view.write();
+                v.occupancy.insert(o.area.clone(), o);
+                v.states_version += 1;
             }
         });
 
-        let statuses = bus.subscribe(&keys.key_all(&topics::STATUS)).await?;
+        let statuses = bus.subscribe_to(&topics::STATUS).await?;
         let (view, b) = (self.clone(), bus.clone());
         tokio::spawn(async move {
-            while let Ok(sample) = statuses.recv_async().await {
-                if let Some(s) = b.decode::<ServiceStatus>(&sample) {
-                    metrics::record_status(&s);
-                    view.write()
-                        .statuses
-                        .insert(s.service.clone(), (s, Instant::now()));
-                }
+            while let Some((_, s)) = statuses.next(&b).await {
+                metrics::record_status(&s);
+                view.write()
+                    .statuses
+                    .insert(s.service.clone(), (s, Instant::now()));
             }
         });
 

@@ -55,21 +55,19 @@ struct Areas {
 }
 
 impl Areas {
-    fn state(&self, area: usize, validity: f64) -> CrosswalkOccupancy {
+    fn state(&self, area: usize) -> CrosswalkOccupancy {
         let occupants: Vec<String> = self.occupancy.occupants(area).iter().cloned().collect();
         CrosswalkOccupancy {
             area: self.net.crosswalks[area].name.clone(),
             occupied: !occupants.is_empty(),
             occupants,
-            valid_until: self.time + validity,
+            valid_until: self.vouch.valid_until(self.time),
         }
     }
 }
 
 struct Crosswalks {
     areas: Mutex<Areas>,
-    map: u64,
-    validity: f64,
     /// After this long (wall time) a silent source's agents are forgotten.
     source_timeout: Duration,
     /// Sources no lockstep tick is answered without.
@@ -88,6 +86,7 @@ fn main() -> ExitCode {
         trafficmesh_service::check_flags(&args.settings)?;
         let net = args.service.map.load()?;
         runtime::check_key_names("crosswalk", net.crosswalks.iter().map(|c| c.name.as_str()))?;
+        let map = net.fingerprint();
         let areas = Areas {
             occupancy: Occupancy::new(net.crosswalks.len()),
             agents: AgentOccupancy::new(&net.crosswalks),
@@ -98,23 +97,17 @@ fn main() -> ExitCode {
             net,
         };
         let service = Crosswalks {
-            map: areas.net.fingerprint(),
             areas: Mutex::new(areas),
-            validity: args.settings.validity,
             source_timeout: Duration::from_secs_f64(args.settings.source_timeout),
             required_sources: args.lockstep_sources,
         };
-        trafficmesh_service::run(&args.service, service)
+        trafficmesh_service::run(&args.service, map, service)
     })
 }
 
 impl Service for Crosswalks {
     const NAME: &'static str = "crosswalks";
     type Answer = TickReport;
-
-    fn map(&self) -> u64 {
-        self.map
-    }
 
     fn status(&self) -> (f64, serde_json::Value) {
         let a = self.areas();
@@ -143,7 +136,7 @@ impl Service for Crosswalks {
             a.time = c.time;
             let changed: Vec<_> = drop_silent(a, self.source_timeout)
                 .into_iter()
-                .map(|i| a.state(i, self.validity))
+                .map(|i| a.state(i))
                 .collect();
             (changed, a.vouch.due(c.time))
         };
@@ -191,10 +184,7 @@ impl Service for Crosswalks {
                     &poses(batch),
                 ));
             }
-            changed
-                .into_iter()
-                .map(|i| a.state(i, self.validity))
-                .collect::<Vec<_>>()
+            changed.into_iter().map(|i| a.state(i)).collect::<Vec<_>>()
         };
         publish(bus, changed.clone()).await;
         TickReport::Crosswalks { changed, heartbeat }
@@ -244,10 +234,7 @@ async fn take_agents(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
             let changed =
                 a.agents
                     .update_source(&a.net.crosswalks, &mut a.occupancy, &source, &poses);
-            changed
-                .into_iter()
-                .map(|i| a.state(i, crosswalks.validity))
-                .collect()
+            changed.into_iter().map(|i| a.state(i)).collect()
         };
         publish(&bus, changed).await;
     }
@@ -284,9 +271,7 @@ async fn answer_states(bus: Arc<Bus>, crosswalks: Arc<Crosswalks>) {
     while let Ok(query) = states.recv_async().await {
         let all: Vec<CrosswalkOccupancy> = {
             let a = crosswalks.areas();
-            (0..a.net.crosswalks.len())
-                .map(|i| a.state(i, crosswalks.validity))
-                .collect()
+            (0..a.net.crosswalks.len()).map(|i| a.state(i)).collect()
         };
         for s in all {
             bus.reply_at(&query, &keys.key_at(&topics::OCCUPANCY, &s.area), &s)

@@ -40,7 +40,7 @@ struct Groups {
 
 impl Groups {
     /// Runs the programs to `time`; returns the groups whose colour changed.
-    fn advance(&mut self, time: f64, validity: f64) -> Vec<LightState> {
+    fn advance(&mut self, time: f64) -> Vec<LightState> {
         self.time = time;
         self.lights.update(time);
         let mut changed = Vec::new();
@@ -48,19 +48,19 @@ impl Groups {
             let color = self.lights.state(i).color;
             if self.published[i] != Some(color) {
                 self.published[i] = Some(color);
-                changed.push(self.state(i, validity));
+                changed.push(self.state(i));
             }
         }
         changed
     }
 
-    fn state(&self, g: usize, validity: f64) -> LightState {
+    fn state(&self, g: usize) -> LightState {
         let s = self.lights.state(g);
         LightState {
             group: self.net.light_groups[g].name.clone(),
             color: s.color,
             next_change: s.next_change.is_finite().then_some(s.next_change),
-            valid_until: self.time + validity,
+            valid_until: self.vouch.valid_until(self.time),
             forced: matches!(self.lights.control(g), LightControl::Forced(_)),
         }
     }
@@ -68,8 +68,6 @@ impl Groups {
 
 struct LightsService {
     groups: Mutex<Groups>,
-    map: u64,
-    validity: f64,
 }
 
 impl LightsService {
@@ -87,6 +85,7 @@ fn main() -> ExitCode {
             "light group",
             net.light_groups.iter().map(|g| g.name.as_str()),
         )?;
+        let map = net.fingerprint();
         let groups = Groups {
             lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
             time: 0.0,
@@ -95,21 +94,15 @@ fn main() -> ExitCode {
             net,
         };
         let service = LightsService {
-            map: groups.net.fingerprint(),
             groups: Mutex::new(groups),
-            validity: args.settings.validity,
         };
-        trafficmesh_service::run(&args.service, service)
+        trafficmesh_service::run(&args.service, map, service)
     })
 }
 
 impl Service for LightsService {
     const NAME: &'static str = "lights";
     type Answer = TickReport;
-
-    fn map(&self) -> u64 {
-        self.map
-    }
 
     fn status(&self) -> (f64, serde_json::Value) {
         let g = self.groups();
@@ -126,7 +119,7 @@ impl Service for LightsService {
     async fn on_clock(&self, bus: &Arc<Bus>, c: Clock) -> Result<()> {
         let (changed, beat) = {
             let mut g = self.groups();
-            (g.advance(c.time, self.validity), g.vouch.due(c.time))
+            (g.advance(c.time), g.vouch.due(c.time))
         };
         publish(bus, &changed).await;
         if let Some(b) = beat {
@@ -140,7 +133,7 @@ impl Service for LightsService {
     async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
         let (changed, heartbeat) = {
             let mut g = self.groups();
-            (g.advance(tick.time, self.validity), g.vouch.due(tick.time))
+            (g.advance(tick.time), g.vouch.due(tick.time))
         };
         publish(bus, &changed).await;
         TickReport::Lights { changed, heartbeat }
@@ -165,9 +158,7 @@ async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
     while let Ok(query) = queryable.recv_async().await {
         let states: Vec<LightState> = {
             let g = lights.groups();
-            (0..g.published.len())
-                .map(|i| g.state(i, lights.validity))
-                .collect()
+            (0..g.published.len()).map(|i| g.state(i)).collect()
         };
         for s in states {
             let key = keys.key_at(&topics::LIGHT_STATE, &s.group);
@@ -185,7 +176,7 @@ async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
 async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
     let served = bus
         .serve(&topics::LIGHTS_OVERRIDE, |o: LightOverride| {
-            let state = apply_override(&mut lights.groups(), &o, lights.validity);
+            let state = apply_override(&mut lights.groups(), &o);
             let bus = &bus;
             async move {
                 let state = state?;
@@ -200,7 +191,7 @@ async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
     }
 }
 
-fn apply_override(g: &mut Groups, o: &LightOverride, validity: f64) -> Result<LightState, String> {
+fn apply_override(g: &mut Groups, o: &LightOverride) -> Result<LightState, String> {
     let i = g
         .net
         .light_group(&o.group)
@@ -217,7 +208,7 @@ fn apply_override(g: &mut Groups, o: &LightOverride, validity: f64) -> Result<Li
     let t = g.time;
     g.lights.set_control(i, control, t);
     g.published[i] = Some(g.lights.state(i).color);
-    Ok(g.state(i, validity))
+    Ok(g.state(i))
 }
 
 fn check_program(p: &LightProgram) -> Result<(), String> {

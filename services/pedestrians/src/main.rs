@@ -39,7 +39,6 @@ struct Walkers {
 
 struct PedestriansService {
     walkers: Mutex<Walkers>,
-    map: u64,
 }
 
 /// The walkers and cyclists as agent footprints at `time`.
@@ -72,9 +71,8 @@ fn main() -> ExitCode {
                 people: Pedestrians::new(&net.crosswalks, config, args.seed),
                 last: None,
             }),
-            map: net.fingerprint(),
         };
-        trafficmesh_service::run(&args.service, service)
+        trafficmesh_service::run(&args.service, net.fingerprint(), service)
     })
 }
 
@@ -87,10 +85,6 @@ impl PedestriansService {
 impl Service for PedestriansService {
     const NAME: &'static str = "pedestrians";
     type Answer = AgentBatch;
-
-    fn map(&self) -> u64 {
-        self.map
-    }
 
     fn status(&self) -> (f64, serde_json::Value) {
         let w = self.walkers();

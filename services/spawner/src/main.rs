@@ -11,7 +11,7 @@ mod subscriptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
-use std::sync::{Arc, Mutex, OnceLock};
+use std::sync::{Arc, Mutex};
 
 use anyhow::Result;
 use clap::Parser;
@@ -41,11 +41,9 @@ struct Args {
 }
 
 pub struct Spawner {
-    bus: OnceLock<Arc<Bus>>,
     pub state: Mutex<SpawnerState>,
     pub spawn_config_path: PathBuf,
     branch_csv_path: PathBuf,
-    map: u64,
     /// In lockstep: the last orders and the time they were planned at,
     /// booked when the next question brings their verdicts.
     pending: Mutex<(Vec<SpawnRequest>, f64)>,
@@ -58,18 +56,10 @@ impl Spawner {
         self.state.lock().expect("spawner state lock")
     }
 
-    /// The bus, set when the service joins it (before any task starts).
-    pub fn bus(&self) -> &Arc<Bus> {
-        self.bus
-            .get()
-            .expect("the bus is set before any task starts")
-    }
-
     /// Publishes the config in force, for the stepper's branch choices.
-    pub async fn publish_config(&self) {
+    pub async fn publish_config(&self, bus: &Bus) {
         let config = self.state().config.clone();
-        if let Err(e) = self
-            .bus()
+        if let Err(e) = bus
             .publish(&trafficmesh_protocol::topics::SPAWN_CONFIG, &config)
             .await
         {
@@ -81,12 +71,13 @@ impl Spawner {
 fn main() -> ExitCode {
     runtime::main_with(|| {
         let args = Args::parse();
-        let service = build(&args)?;
-        trafficmesh_service::run(&args.service, service)
+        let (map, service) = build(&args)?;
+        trafficmesh_service::run(&args.service, map, service)
     })
 }
 
-fn build(args: &Args) -> Result<Spawner> {
+/// The spawner on its map (and demand), and the map's fingerprint.
+fn build(args: &Args) -> Result<(u64, Spawner)> {
     trafficmesh_service::check_flags(&args.settings)?;
     let (map_args, settings) = (&args.service.map, &args.settings);
     let (net, warnings) = map_args.load_with_routes(settings.routes.as_deref(), args.seed)?;
@@ -98,8 +89,7 @@ fn build(args: &Args) -> Result<Spawner> {
         .max_vehicles
         .unwrap_or(trafficmesh_sim::world::default_max_vehicles(timetable));
     let map = net.fingerprint();
-    let mut state = SpawnerState::new(net, args.seed, max_vehicles);
-    state.spawn_distance_to_ego = settings.spawn_distance_to_ego;
+    let mut state = SpawnerState::new(net, args.seed, max_vehicles, settings.spawn_distance_to_ego);
     let path = &settings.spawn_config;
     if path.exists() {
         let config = trafficmesh_maps::load_spawn_config(path)?;
@@ -108,25 +98,20 @@ fn build(args: &Args) -> Result<Spawner> {
             .map_err(|problems| anyhow::anyhow!("{}: {}", path.display(), problems.join("; ")))?;
         tracing::info!("loaded spawn config {}", path.display());
     }
-    Ok(Spawner {
-        bus: OnceLock::new(),
+    let spawner = Spawner {
         state: Mutex::new(state),
         spawn_config_path: settings.spawn_config.clone(),
         branch_csv_path: settings.branch_csv.clone(),
-        map,
         pending: Mutex::new((Vec::new(), 0.0)),
         warned: AtomicBool::new(false),
-    })
+    };
+    Ok((map, spawner))
 }
 
 impl Service for Spawner {
     const NAME: &'static str = "spawner";
     const WORKERS: usize = 2;
     type Answer = TickReport;
-
-    fn map(&self) -> u64 {
-        self.map
-    }
 
     fn status(&self) -> (f64, serde_json::Value) {
         let s = self.state();
@@ -152,20 +137,19 @@ impl Service for Spawner {
     }
 
     async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
-        let _ = self.bus.set(bus.clone());
-        subscriptions::start(self.clone()).await?;
-        queries::start(self.clone()).await?;
-        self.publish_config().await;
+        subscriptions::start(self.clone(), bus).await?;
+        queries::start(self.clone(), bus).await?;
+        self.publish_config(bus).await;
         Ok(())
     }
 
-    async fn on_clock(&self, _bus: &Arc<Bus>, clock: Clock) -> Result<()> {
-        spawn_loop::on_clock(self, clock).await;
+    async fn on_clock(&self, bus: &Arc<Bus>, clock: Clock) -> Result<()> {
+        spawn_loop::on_clock(self, bus, clock).await;
         Ok(())
     }
 
-    async fn on_tick(&self, _bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
-        spawn_loop::on_tick(self, tick).await
+    async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
+        spawn_loop::on_tick(self, bus, tick).await
     }
 
     /// The branch-decision CSV, written whole or not at all.

@@ -4,7 +4,7 @@
 use std::sync::Arc;
 use std::time::Duration;
 
-use trafficmesh_bus::BusError;
+use trafficmesh_bus::{Bus, BusError};
 use trafficmesh_model::TrafficSpawnConfig;
 use trafficmesh_protocol::wire::{RemoveTarget, RestartRequest};
 use trafficmesh_protocol::{Keys, topics};
@@ -49,25 +49,23 @@ impl Command {
     }
 }
 
-pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
-    let bus = spawner.bus().clone();
+pub async fn start(spawner: Arc<Spawner>, bus: &Arc<Bus>) -> Result<(), BusError> {
     let keys = bus.keys().clone();
     for command in Command::ALL {
         let queryable = bus.queryable(&command.key(&keys)).await?;
-        let s = spawner.clone();
+        let (s, b) = (spawner.clone(), bus.clone());
         tokio::spawn(async move {
             while let Ok(query) = queryable.recv_async().await {
-                let s = s.clone();
+                let (s, b) = (s.clone(), b.clone());
                 // Forwarded commands wait for the stepper; answer each on its own.
-                tokio::spawn(async move { answer(&s, command, &query).await });
+                tokio::spawn(async move { answer(&s, &b, command, &query).await });
             }
         });
     }
     Ok(())
 }
 
-async fn answer(s: &Spawner, command: Command, query: &Query) {
-    let bus = s.bus();
+async fn answer(s: &Spawner, bus: &Bus, command: Command, query: &Query) {
     match command {
         Command::Config => {
             let config = s.state().config.clone();
@@ -80,7 +78,7 @@ async fn answer(s: &Spawner, command: Command, query: &Query) {
             let result = s.state().set_config(config);
             match result {
                 Ok(()) => {
-                    s.publish_config().await;
+                    s.publish_config(bus).await;
                     let config = s.state().config.clone();
                     bus.reply(query, &config).await;
                 }
@@ -109,7 +107,7 @@ async fn answer(s: &Spawner, command: Command, query: &Query) {
             match loaded {
                 Ok(()) => {
                     tracing::info!("loaded spawn config {}", s.spawn_config_path.display());
-                    s.publish_config().await;
+                    s.publish_config(bus).await;
                     let config = s.state().config.clone();
                     bus.reply(query, &config).await;
                 }

@@ -9,10 +9,12 @@ use std::time::Duration;
 use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::{Clock, LockstepTick, ProposalResult, TickReport};
 
+use trafficmesh_bus::Bus;
+
 use crate::Spawner;
 
 /// One clock tick: plan, and ask the stepper to spawn the winners.
-pub async fn on_clock(spawner: &Spawner, c: Clock) {
+pub async fn on_clock(spawner: &Spawner, bus: &Bus, c: Clock) {
     let (requests, batch) = {
         let mut s = spawner.state();
         s.time = c.time;
@@ -21,8 +23,7 @@ pub async fn on_clock(spawner: &Spawner, c: Clock) {
     if requests.is_empty() {
         return;
     }
-    let answer = spawner
-        .bus()
+    let answer = bus
         .call(&topics::STEPPER_SPAWN, &batch, Duration::from_secs(2))
         .await;
     let answer = match answer {
@@ -40,13 +41,13 @@ pub async fn on_clock(spawner: &Spawner, c: Clock) {
     };
     spawner.warned.store(false, Ordering::Relaxed);
     let results = spawner.state().resolve(&requests, &answer.verdicts, c.time);
-    announce(spawner, results, c.time).await;
+    announce(bus, results, c.time).await;
 }
 
 /// In lockstep: each question books the verdicts on the last orders, then
 /// plans this tick's, as a world that runs its own simulators does in its
 /// spawn phase.
-pub async fn on_tick(spawner: &Spawner, tick: LockstepTick) -> TickReport {
+pub async fn on_tick(spawner: &Spawner, bus: &Bus, tick: LockstepTick) -> TickReport {
     let (results, report) = {
         let mut s = spawner.state();
         let mut pending = spawner.pending.lock().expect("pending orders lock");
@@ -68,16 +69,15 @@ pub async fn on_tick(spawner: &Spawner, tick: LockstepTick) -> TickReport {
         let config = s.take_config_change();
         (results, TickReport::Spawner { orders, config })
     };
-    announce(spawner, results, tick.time).await;
+    announce(bus, results, tick.time).await;
     report
 }
 
 /// Tells each external simulator which of its proposals spawned.
-async fn announce(spawner: &Spawner, results: Vec<(String, String, u64)>, time: f64) {
+async fn announce(bus: &Bus, results: Vec<(String, String, u64)>, time: f64) {
     for (simulator, tag, id) in results {
         let result = ProposalResult { tag, id, time };
-        if let Err(e) = spawner
-            .bus()
+        if let Err(e) = bus
             .publish_at(&topics::PROPOSAL_RESULTS, &simulator, &result)
             .await
         {

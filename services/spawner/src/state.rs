@@ -29,7 +29,12 @@ pub struct SpawnerState {
 }
 
 impl SpawnerState {
-    pub fn new(net: LaneNetwork, seed: u64, max_vehicles: usize) -> Self {
+    pub fn new(
+        net: LaneNetwork,
+        seed: u64,
+        max_vehicles: usize,
+        spawn_distance_to_ego: f64,
+    ) -> Self {
         let manager = SpawnManager::new(&net, seed, true);
         SpawnerState {
             net,
@@ -37,7 +42,7 @@ impl SpawnerState {
             config: TrafficSpawnConfig::default(),
             stats: BranchStats::default(),
             max_vehicles,
-            spawn_distance_to_ego: trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego,
+            spawn_distance_to_ego,
             ego: None,
             time: 0.0,
             config_unsent: true,

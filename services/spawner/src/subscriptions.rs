@@ -2,22 +2,19 @@
 
 use std::sync::Arc;
 
-use trafficmesh_bus::BusError;
+use trafficmesh_bus::{Bus, BusError};
 use trafficmesh_protocol::topics;
 use trafficmesh_protocol::wire::Event;
 
 use crate::Spawner;
 
-pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
-    let bus = spawner.bus().clone();
-    let keys = bus.keys().clone();
-
+pub async fn start(spawner: Arc<Spawner>, bus: &Arc<Bus>) -> Result<(), BusError> {
     let ego = bus.subscribe_to(&topics::EGO).await?;
-    let s = spawner.clone();
+    let (s, b) = (spawner.clone(), bus.clone());
     tokio::spawn(async move {
-        while let Some((_, pose)) = ego.next(s.bus()).await {
+        while let Some((_, pose)) = ego.next(&b).await {
             if let Some(problem) = pose.problem() {
-                s.bus().reject(&keys.key(&topics::EGO), &problem);
+                b.reject(&b.keys().key(&topics::EGO), &problem);
                 continue;
             }
             s.state().ego = Some(trafficmesh_service::ego_of(&pose));
@@ -25,10 +22,9 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
     });
 
     let events = bus.subscribe_to(&topics::EVENTS).await?;
-    let s = spawner.clone();
-    let keys = bus.keys().clone();
+    let (s, b) = (spawner.clone(), bus.clone());
     tokio::spawn(async move {
-        while let Some((_, batch)) = events.next(s.bus()).await {
+        while let Some((_, batch)) = events.next(&b).await {
             let mut state = s.state();
             for e in batch.events {
                 if let Event::BranchDecision {
@@ -47,20 +43,18 @@ pub async fn start(spawner: Arc<Spawner>) -> Result<(), BusError> {
                         probability,
                     )
                 {
-                    s.bus().reject(&keys.key(&topics::EVENTS), &problem);
+                    b.reject(&b.keys().key(&topics::EVENTS), &problem);
                 }
             }
         }
     });
 
     let proposals = bus.subscribe_to(&topics::PROPOSALS).await?;
-    let s = spawner.clone();
-    let keys = bus.keys().clone();
+    let (s, b) = (spawner, bus.clone());
     tokio::spawn(async move {
-        while let Some((simulator, batch)) = proposals.next(s.bus()).await {
+        while let Some((simulator, batch)) = proposals.next(&b).await {
             if let Err(problem) = s.state().set_proposals(&simulator, batch) {
-                s.bus()
-                    .reject(&keys.key_at(&topics::PROPOSALS, &simulator), &problem);
+                b.reject(&b.keys().key_at(&topics::PROPOSALS, &simulator), &problem);
             }
         }
     });

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::LaneNetwork;
 
 use trafficmesh_maps::FileError;
@@ -53,78 +52,10 @@ impl MapArgs {
     }
 }
 
-/// AWSIM's NPCVehicleConfig, as `sim` and the stepper take it (the
-/// inspector's fields). Defaults are the reference's, from
-/// [`NpcVehicleConfig::default`].
-#[derive(clap::Args, Clone, Debug)]
-pub struct VehicleArgs {
-    /// Normal forward acceleration, m/s² (`acceleration`).
-    #[arg(long, default_value_t = NpcVehicleConfig::default().acceleration, allow_negative_numbers = true)]
-    pub acceleration: f64,
-    /// Gentle braking of STOP and SLOW, m/s² (`deceleration`).
-    #[arg(long, default_value_t = NpcVehicleConfig::default().deceleration, allow_negative_numbers = true)]
-    pub deceleration: f64,
-    /// Braking for a vehicle ahead, m/s² (`suddenDeceleration`).
-    #[arg(long, default_value_t = NpcVehicleConfig::default().sudden_deceleration, allow_negative_numbers = true)]
-    pub sudden_deceleration: f64,
-    /// Emergency braking, m/s² (`absoluteDeceleration`).
-    #[arg(long, default_value_t = NpcVehicleConfig::default().absolute_deceleration, allow_negative_numbers = true)]
-    pub absolute_deceleration: f64,
-    /// Where NORMAL-mode target speeds come from: one fixed speed, or each
-    /// lane's limit (`speedLimitSource`). Default: the lanes' limits on
-    /// imported maps (SUMO, Lanelet2), fixed on native ones.
-    #[arg(long, value_enum)]
-    pub speed_limit_source: Option<SpeedSource>,
-    /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
-    #[arg(long, default_value_t = NpcVehicleConfig::default().fixed_speed_limit, allow_negative_numbers = true)]
-    pub fixed_speed_limit: f64,
-}
-
 /// The AWSIM reference's SpeedLimitSource, as the flags and cluster.toml name it.
 #[derive(Clone, Copy, Debug, clap::ValueEnum, serde::Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum SpeedSource {
     Fixed,
     Lanelet,
-}
-
-impl VehicleArgs {
-    /// `base` with these settings, for a run on `map`.
-    pub fn apply(&self, base: NpcVehicleConfig, map: &std::path::Path) -> NpcVehicleConfig {
-        NpcVehicleConfig {
-            acceleration: self.acceleration,
-            deceleration: self.deceleration,
-            sudden_deceleration: self.sudden_deceleration,
-            absolute_deceleration: self.absolute_deceleration,
-            speed_limit_source: match self.speed_limit_source {
-                Some(SpeedSource::Fixed) => SpeedLimitSource::FixedSpeedLimit,
-                Some(SpeedSource::Lanelet) => SpeedLimitSource::LaneletSpeedLimit,
-                None => trafficmesh_maps::default_speed_limit_source(map),
-            },
-            fixed_speed_limit: self.fixed_speed_limit,
-            ..base
-        }
-    }
-}
-
-/// AWSIM's spawnDistanceToEgo, as `sim` and the spawner take it.
-#[derive(clap::Args, Clone, Debug)]
-pub struct SpawnDistanceArgs {
-    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
-    #[arg(long, default_value_t = trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
-    pub spawn_distance_to_ego: f64,
-}
-
-impl SpawnDistanceArgs {
-    /// The distance, or what is wrong with it.
-    pub fn checked(&self) -> Result<f64, String> {
-        let d = self.spawn_distance_to_ego;
-        if d.is_finite() && d >= 0.0 {
-            Ok(d)
-        } else {
-            Err(format!(
-                "--spawn-distance-to-ego must be a number of metres >= 0, got {d}"
-            ))
-        }
-    }
 }

@@ -40,9 +40,6 @@ pub trait Service: Send + Sync + Sized + 'static {
     /// What it answers a lockstep question with.
     type Answer: Serialize + Send;
 
-    /// The fingerprint of the map it runs on (see `LaneNetwork::fingerprint`).
-    fn map(&self) -> u64;
-
     /// The simulation time reached and its own counters, for its status.
     fn status(&self) -> (f64, serde_json::Value);
 
@@ -75,15 +72,15 @@ pub trait Service: Send + Sync + Sized + 'static {
     }
 }
 
-/// Runs `service` until SIGINT or SIGTERM: joins the bus (refusing a
-/// stepper on another map), serves its status, starts its topics and follows
-/// the clock or the lockstep questions.
-pub fn run<S: Service>(args: &ServiceArgs, service: S) -> Result<()> {
+/// Runs `service`, built on the map with fingerprint `map` (see
+/// `LaneNetwork::fingerprint`), until SIGINT or SIGTERM: joins the bus
+/// (refusing a stepper on another map), serves its status, starts its topics
+/// and follows the clock or the lockstep questions.
+pub fn run<S: Service>(args: &ServiceArgs, map: u64, service: S) -> Result<()> {
     args.bus.keys()?;
     runtime::tokio_runtime(S::WORKERS)?.block_on(async move {
         let bus = Arc::new(Bus::open_service(&args.bus, Role::Member, S::NAME).await?);
         let service = Arc::new(service);
-        let map = service.map();
         trafficmesh_bus::check_map(&bus, map).await?;
         let status = service.clone();
         trafficmesh_bus::serve_status(bus.clone(), Some(map), Arc::new(move || status.status()));

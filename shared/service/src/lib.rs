@@ -7,9 +7,9 @@ pub mod args;
 mod kit;
 pub mod settings;
 
-pub use args::{MapArgs, SpawnDistanceArgs, SpeedSource, VehicleArgs};
+pub use args::{MapArgs, SpeedSource};
 pub use kit::{Service, ServiceArgs, run};
-pub use settings::{Settings, check_flags};
+pub use settings::{Settings, SpawnDistanceArgs, VehicleArgs, check_flags};
 
 use trafficmesh_maps::FileError;
 use trafficmesh_protocol::wire::EgoPose;

@@ -7,6 +7,9 @@ use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use serde::Deserialize;
+use trafficmesh_model::{NpcVehicleConfig, SpeedLimitSource};
+
+use crate::args::SpeedSource;
 
 /// What every settings struct offers.
 pub trait Settings {
@@ -312,12 +315,7 @@ impl Default for SpawnerSettings {
 
 impl Settings for SpawnerSettings {
     fn problems(&self) -> Vec<(&'static str, String)> {
-        let d = self.spawn_distance_to_ego;
-        collect([(
-            "spawn_distance_to_ego",
-            (!(d.is_finite() && d >= 0.0))
-                .then(|| format!("must be a number of metres >= 0, got {d}")),
-        )])
+        collect([spawn_distance_problem(self.spawn_distance_to_ego)])
     }
     fn flags(&self) -> Vec<String> {
         let mut flags = Vec::new();
@@ -408,4 +406,124 @@ impl Settings for AdminSettings {
         }
         flags
     }
+}
+
+/// AWSIM's NPCVehicleConfig as `sim` and the stepper take it (the
+/// inspector's fields), and as `[vehicle]` in cluster.toml. Defaults are the
+/// reference's, from [`NpcVehicleConfig::default`].
+#[derive(clap::Args, Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct VehicleArgs {
+    /// Normal forward acceleration, m/s² (`acceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().acceleration, allow_negative_numbers = true)]
+    pub acceleration: f64,
+    /// Gentle braking of STOP and SLOW, m/s² (`deceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().deceleration, allow_negative_numbers = true)]
+    pub deceleration: f64,
+    /// Braking for a vehicle ahead, m/s² (`suddenDeceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().sudden_deceleration, allow_negative_numbers = true)]
+    pub sudden_deceleration: f64,
+    /// Emergency braking, m/s² (`absoluteDeceleration`).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().absolute_deceleration, allow_negative_numbers = true)]
+    pub absolute_deceleration: f64,
+    /// Where NORMAL-mode target speeds come from: one fixed speed, or each
+    /// lane's limit (`speedLimitSource`). Default: the lanes' limits on
+    /// imported maps (SUMO, Lanelet2), fixed on native ones.
+    #[arg(long, value_enum)]
+    pub speed_limit_source: Option<SpeedSource>,
+    /// Target speed with `--speed-limit-source fixed`, m/s (50 km/h).
+    #[arg(long, default_value_t = NpcVehicleConfig::default().fixed_speed_limit, allow_negative_numbers = true)]
+    pub fixed_speed_limit: f64,
+}
+
+impl Default for VehicleArgs {
+    fn default() -> Self {
+        let c = NpcVehicleConfig::default();
+        VehicleArgs {
+            acceleration: c.acceleration,
+            deceleration: c.deceleration,
+            sudden_deceleration: c.sudden_deceleration,
+            absolute_deceleration: c.absolute_deceleration,
+            speed_limit_source: None,
+            fixed_speed_limit: c.fixed_speed_limit,
+        }
+    }
+}
+
+impl VehicleArgs {
+    /// The accelerations and the fixed limit, by field name.
+    fn numbers(&self) -> [(&'static str, f64); 5] {
+        [
+            ("acceleration", self.acceleration),
+            ("deceleration", self.deceleration),
+            ("sudden_deceleration", self.sudden_deceleration),
+            ("absolute_deceleration", self.absolute_deceleration),
+            ("fixed_speed_limit", self.fixed_speed_limit),
+        ]
+    }
+    /// `base` with these settings, for a run on `map`.
+    pub fn apply(&self, base: NpcVehicleConfig, map: &std::path::Path) -> NpcVehicleConfig {
+        NpcVehicleConfig {
+            acceleration: self.acceleration,
+            deceleration: self.deceleration,
+            sudden_deceleration: self.sudden_deceleration,
+            absolute_deceleration: self.absolute_deceleration,
+            speed_limit_source: match self.speed_limit_source {
+                Some(SpeedSource::Fixed) => SpeedLimitSource::FixedSpeedLimit,
+                Some(SpeedSource::Lanelet) => SpeedLimitSource::LaneletSpeedLimit,
+                None => trafficmesh_maps::default_speed_limit_source(map),
+            },
+            fixed_speed_limit: self.fixed_speed_limit,
+            ..base
+        }
+    }
+}
+
+impl Settings for VehicleArgs {
+    fn problems(&self) -> Vec<(&'static str, String)> {
+        collect(self.numbers().map(|(name, v)| {
+            (
+                name,
+                (!positive(v)).then(|| format!("must be a positive number, got {v}")),
+            )
+        }))
+    }
+    fn flags(&self) -> Vec<String> {
+        let mut flags: Vec<String> = self
+            .numbers()
+            .into_iter()
+            .flat_map(|(name, v)| flag(name, v))
+            .collect();
+        if let Some(source) = self.speed_limit_source {
+            let value = clap::ValueEnum::to_possible_value(&source).expect("no variant is skipped");
+            flags.extend(flag("speed_limit_source", value.get_name()));
+        }
+        flags
+    }
+}
+
+/// AWSIM's spawnDistanceToEgo, as `sim` takes it (the spawner's is in
+/// [`SpawnerSettings`]).
+#[derive(clap::Args, Clone, Debug)]
+pub struct SpawnDistanceArgs {
+    /// spawnDistanceToEgo: no vehicle spawns closer than this to the ego, metres.
+    #[arg(long, default_value_t = trafficmesh_sim::WorldConfig::default().spawn_distance_to_ego, allow_negative_numbers = true)]
+    pub spawn_distance_to_ego: f64,
+}
+
+impl Settings for SpawnDistanceArgs {
+    fn problems(&self) -> Vec<(&'static str, String)> {
+        collect([spawn_distance_problem(self.spawn_distance_to_ego)])
+    }
+    fn flags(&self) -> Vec<String> {
+        flag("spawn_distance_to_ego", self.spawn_distance_to_ego).into()
+    }
+}
+
+/// The one rule for spawnDistanceToEgo.
+fn spawn_distance_problem(d: f64) -> (&'static str, Option<String>) {
+    (
+        "spawn_distance_to_ego",
+        (!(d.is_finite() && d >= 0.0)).then(|| format!("must be a number of metres >= 0, got {d}")),
+    )
 }

@@ -139,23 +139,21 @@ fn a_vehicle_held_by_a_red_light_is_neither_stuck_nor_jammed() {
     assert_eq!(w.wait_stats().jam_resolutions, 0);
 }
 
-/// "Don't block the box" through a junction of two lanes (a left turn past
-/// the junction's inner point): with the exit taken, a vehicle waits before
-/// the first junction lane, not inside the box, where it would block the
-/// crossing traffic and lock the junction.
-#[test]
-fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
-    let mut inner = lane("junction_a", &[[400.0, 0.0], [410.0, 0.0]], &["junction_b"]);
-    inner["intersection"] = json!(true);
-    let mut outer = lane("junction_b", &[[410.0, 0.0], [420.0, 0.0]], &["exit"]);
-    outer["intersection"] = json!(true);
-    let lanes = vec![
-        lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction_a"]),
-        inner,
-        outer,
-        lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]),
-    ];
-    // A walker who never leaves holds the exit's first vehicle just past the box.
+/// An eastbound road into a junction of `junction` lanes (in a row, 20 m in
+/// all, from x = 400) and out on an exit lane, whose first vehicle a walker
+/// who never leaves a zebra crossing holds just past the box (stop line at
+/// x = 428).
+fn held_exit(junction: &[&str], config: WorldConfig) -> trafficmesh_sim::World {
+    let step = 20.0 / junction.len() as f64;
+    let mut lanes = vec![lane("east", &[[0.0, 0.0], [400.0, 0.0]], &[junction[0]])];
+    for (k, name) in junction.iter().enumerate() {
+        let next = junction.get(k + 1).copied().unwrap_or("exit");
+        let x = 400.0 + step * k as f64;
+        let mut l = lane(name, &[[x, 0.0], [x + step, 0.0]], &[next]);
+        l["intersection"] = json!(true);
+        lanes.push(l);
+    }
+    lanes.push(lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]));
     let m = map(
         lanes,
         json!({
@@ -166,9 +164,19 @@ fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
             }]
         }),
     );
-    let mut w = world(&m, WorldConfig::default());
+    let mut w = world(&m, config);
     w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
         .unwrap();
+    w
+}
+
+/// "Don't block the box" through a junction of two lanes (a left turn past
+/// the junction's inner point): with the exit taken, a vehicle waits before
+/// the first junction lane, not inside the box, where it would block the
+/// crossing traffic and lock the junction.
+#[test]
+fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
+    let mut w = held_exit(&["junction_a", "junction_b"], WorldConfig::default());
     let blocker = w
         .place_vehicle_on_route("Taxi", &["exit"], 6.0, 0.0)
         .unwrap();
@@ -199,23 +207,6 @@ fn a_vehicle_whose_exit_is_taken_waits_before_a_two_lane_junction() {
 /// following it in and standing across the junction.
 #[test]
 fn a_vehicle_does_not_follow_a_car_into_the_box_that_will_stop_at_its_exit() {
-    let mut junction = lane("junction", &[[400.0, 0.0], [420.0, 0.0]], &["exit"]);
-    junction["intersection"] = json!(true);
-    let lanes = vec![
-        lane("east", &[[0.0, 0.0], [400.0, 0.0]], &["junction"]),
-        junction,
-        lane("exit", &[[420.0, 0.0], [800.0, 0.0]], &[]),
-    ];
-    let m = map(
-        lanes,
-        json!({
-            "crosswalks": [{
-                "name": "Zebra",
-                "area": { "shape": "box", "center": [432.0, 0.0], "half_extents": [2.0, 6.0] },
-                "stop_points": [{ "position": [428.0, 0.0] }]
-            }]
-        }),
-    );
     let realistic = WorldConfig {
         vehicle: trafficmesh_model::NpcVehicleConfig {
             driver_model: trafficmesh_model::DriverModel::by_name("realistic").unwrap(),
@@ -223,9 +214,7 @@ fn a_vehicle_does_not_follow_a_car_into_the_box_that_will_stop_at_its_exit() {
         },
         ..WorldConfig::default()
     };
-    let mut w = world(&m, realistic);
-    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
-        .unwrap();
+    let mut w = held_exit(&["junction"], realistic);
     // Rolling at 5 m/s with its rear 0.5 m into the exit: it stops at the zebra.
     let rolling = w
         .place_vehicle_on_route("Taxi", &["exit"], 5.0, 5.0)

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result, bail};
 use serde::Deserialize;
+use trafficmesh_service::VehicleArgs;
 use trafficmesh_service::settings::{
     AdminSettings, CrosswalksSettings, LightsSettings, PedestriansSettings, Settings,
     SpawnerSettings, StepperSettings, problems_in,
@@ -31,7 +32,7 @@ pub struct ClusterConfig {
     #[serde(default)]
     pub stepper: StepperSettings,
     #[serde(default)]
-    pub vehicle: VehicleSection,
+    pub vehicle: VehicleArgs,
     #[serde(default)]
     pub spawner: SpawnerSettings,
     #[serde(default)]
@@ -52,48 +53,6 @@ pub struct Launch {
     pub flags: Vec<String>,
     /// Extra environment (secrets stay off the command line).
     pub env: Vec<(String, String)>,
-}
-
-/// AWSIM's NPCVehicleConfig: accelerations in m/s² and the speed limit;
-/// unset: the reference's (the stepper's defaults).
-#[derive(Debug, Deserialize, Default)]
-#[serde(deny_unknown_fields, default)]
-pub struct VehicleSection {
-    pub acceleration: Option<f64>,
-    pub deceleration: Option<f64>,
-    pub sudden_deceleration: Option<f64>,
-    pub absolute_deceleration: Option<f64>,
-    /// `fixed` or `lanelet` (each lane's limit); unset: the map's default.
-    pub speed_limit_source: Option<trafficmesh_service::SpeedSource>,
-    pub fixed_speed_limit: Option<f64>,
-}
-
-impl VehicleSection {
-    /// (name in the file, stepper flag, value) of each one set.
-    fn set(&self) -> Vec<(&'static str, &'static str, f64)> {
-        [
-            ("acceleration", "--acceleration", self.acceleration),
-            ("deceleration", "--deceleration", self.deceleration),
-            (
-                "sudden_deceleration",
-                "--sudden-deceleration",
-                self.sudden_deceleration,
-            ),
-            (
-                "absolute_deceleration",
-                "--absolute-deceleration",
-                self.absolute_deceleration,
-            ),
-            (
-                "fixed_speed_limit",
-                "--fixed-speed-limit",
-                self.fixed_speed_limit,
-            ),
-        ]
-        .into_iter()
-        .filter_map(|(name, flag, v)| v.map(|v| (name, flag, v)))
-        .collect()
-    }
 }
 
 #[derive(Debug, Deserialize)]
@@ -154,24 +113,18 @@ impl ClusterConfig {
     /// The settings each service would refuse at start, named as in the file
     /// (the same rules the services apply to their flags).
     fn value_problems(&self) -> Vec<String> {
-        let mut problems = [
+        [
             problems_in("stepper", &self.stepper),
             problems_in("spawner", &self.spawner),
             problems_in("lights", &self.lights),
             problems_in("crosswalks", &self.crosswalks),
             problems_in("pedestrians", &self.pedestrians),
             problems_in("admin", &self.admin),
+            problems_in("vehicle", &self.vehicle),
         ]
-        .concat();
-        for (name, _, v) in self.vehicle.set() {
-            if !(v.is_finite() && v > 0.0) {
-                problems.push(format!("vehicle.{name} must be a positive number, got {v}"));
-            }
-        }
-        problems
+        .concat()
     }
 
-    /// Every service to start.
     /// `--map M` or `--sumocfg S`, as every service takes it.
     pub fn map_flags(&self) -> [String; 2] {
         match (&self.sumocfg, &self.map) {
@@ -181,6 +134,7 @@ impl ClusterConfig {
         }
     }
 
+    /// Every service to start, with its flags.
     pub fn services(&self) -> Vec<Launch> {
         let map = self.map_flags();
         let mut common = vec!["--cluster".to_string(), self.cluster.clone()];
@@ -223,13 +177,7 @@ impl ClusterConfig {
                 "lights,crosswalks,spawner".into(),
             ]);
         }
-        for (_, flag, v) in self.vehicle.set() {
-            stepper.extend([flag.into(), v.to_string()]);
-        }
-        if let Some(source) = self.vehicle.speed_limit_source {
-            let flag = clap::ValueEnum::to_possible_value(&source).expect("no variant is skipped");
-            stepper.extend(["--speed-limit-source".into(), flag.get_name().to_string()]);
-        }
+        stepper.extend(self.vehicle.flags());
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
             ("stepper", stepper),
             (

@@ -164,7 +164,8 @@ pub fn run(a: SimArgs) -> Result<()> {
             a.pedestrians
         );
     }
-    let spawn_distance_to_ego = a.spawn_distance.checked().map_err(anyhow::Error::msg)?;
+    trafficmesh_service::check_flags(&a.spawn_distance)?;
+    let spawn_distance_to_ego = a.spawn_distance.spawn_distance_to_ego;
     if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
         bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
     }

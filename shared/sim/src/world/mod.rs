@@ -32,7 +32,6 @@ use crate::vehicle::{Vehicle, VehicleId};
 
 pub use crate::parallel::MIN_VEHICLES_PER_TASK;
 pub use jams::{STUCK_AFTER, WaitStats};
-use phases::PhaseTimes as TickTiming;
 #[cfg(feature = "bench")]
 pub use phases::{Phase, PhaseTimes};
 pub use spawning::{QueuedSpawn, SpawnRejection};
@@ -136,7 +135,7 @@ pub struct World {
     branch_stats: Option<BranchStats>,
     next_id: VehicleId,
     events: Vec<SimEvent>,
-    phase_times: TickTiming,
+    phase_times: phases::PhaseTimes,
     wait_stats: jams::WaitStats,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
@@ -175,7 +174,7 @@ impl World {
             branch_stats: Some(BranchStats::default()),
             next_id: 0,
             events: Vec::new(),
-            phase_times: TickTiming::default(),
+            phase_times: phases::PhaseTimes::default(),
             wait_stats: jams::WaitStats::default(),
             walkers: None,
         }
