@@ -33,6 +33,7 @@ pub mod pedestrians;
 pub mod populate;
 mod prefetch;
 mod rng;
+pub mod session;
 pub mod spawn;
 mod trajectory;
 mod vehicle;

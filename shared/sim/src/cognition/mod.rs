@@ -29,6 +29,8 @@ pub struct Snapshot<'a> {
     pub lights: &'a Lights,
     pub occupancy: &'a Occupancy,
     pub ego: Option<&'a Ego>,
+    /// Bodies the world does not drive (a runtime's actors): obstacles ahead like the ego.
+    pub foreign: &'a [Ego],
     pub config: &'a NpcVehicleConfig,
     pub row: &'a [RowInfo],
     pub junctions: &'a JunctionBuckets,

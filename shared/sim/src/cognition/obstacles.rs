@@ -96,11 +96,11 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             (net.lane(v.path[0]).length() - v.s).max(0.0),
         ));
     }
-    if let Some(ego) = snap.ego {
+    for body in snap.ego.into_iter().chain(snap.foreign) {
         best = best.nearer(FrontObstacle::clear_to(ego_distance(
             net,
             v,
-            ego,
+            body,
             search.range,
         )));
     }

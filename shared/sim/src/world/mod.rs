@@ -123,6 +123,8 @@ pub struct World {
     /// Some vehicle was stopped by a crosswalk after the last tick's cognition.
     zebra_blocked_last_tick: bool,
     ego: Option<Ego>,
+    /// Bodies moved by someone else; NPCs stop for them as for the ego.
+    foreign: Vec<Ego>,
     spawner: SpawnManager,
     /// Spawn orders from outside (the spawner service), for the next spawn phase.
     queued_spawns: Vec<spawning::QueuedSpawn>,
@@ -166,6 +168,7 @@ impl World {
             occupancy,
             zebra_blocked_last_tick: false,
             ego: None,
+            foreign: Vec::new(),
             spawner,
             queued_spawns: Vec::new(),
             spawn_results: Vec::new(),
@@ -270,6 +273,11 @@ impl World {
     /// Sets the ego; `None` means the dummy ego, which blocks nothing.
     pub fn set_ego(&mut self, ego: Option<Ego>) {
         self.ego = ego;
+    }
+    /// Replaces the bodies that others move (a simulation runtime's ego and
+    /// logged actors): NPCs stop short of them as of the ego.
+    pub fn set_foreign_bodies(&mut self, bodies: Vec<Ego>) {
+        self.foreign = bodies;
     }
     pub fn ego(&self) -> Option<&Ego> {
         self.ego.as_ref()

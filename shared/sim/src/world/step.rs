@@ -176,6 +176,7 @@ impl World {
             lights: &self.lights,
             occupancy: &self.occupancy,
             ego: self.ego.as_ref(),
+            foreign: &self.foreign,
             config: &self.config.vehicle,
             row,
             junctions: &self.junctions,

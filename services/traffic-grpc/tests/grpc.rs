@@ -1,0 +1,161 @@
+//! The traffic service as a runtime uses it: the binary on a free port, a
+//! Python client generated with grpcio-tools from the project's .proto files.
+
+use std::net::{TcpListener, TcpStream};
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+fn crate_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// A Python (TRAFFICMESH_PYTHON, else python3) with grpcio-tools; None, with
+/// a notice, unless TRAFFICMESH_REQUIRE_PYTHON=1 (CI) makes it a failure.
+fn python() -> Option<String> {
+    let candidates = std::env::var("TRAFFICMESH_PYTHON")
+        .into_iter()
+        .chain(["python3".to_string()]);
+    for p in candidates {
+        let ok = Command::new(&p)
+            .args([
+                "-c",
+                "import grpc, grpc_tools, grpc_health, grpc_reflection",
+            ])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if ok {
+            return Some(p);
+        }
+    }
+    assert!(
+        !std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1"),
+        "TRAFFICMESH_REQUIRE_PYTHON=1 but no python can import grpc_tools (set TRAFFICMESH_PYTHON)"
+    );
+    eprintln!(
+        "NOTICE: skipped: no python with grpcio-tools, grpcio-health-checking and grpcio-reflection (see .ci/run)"
+    );
+    None
+}
+
+fn free_port() -> u16 {
+    TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+/// The service on a free port with the four-way map as scene `four_way`.
+struct Service {
+    child: Child,
+    address: String,
+}
+
+impl Service {
+    fn start(dir: &Path) -> Service {
+        let map = crate_dir().join("../../configs/maps/four_way.map.json");
+        let scenes = dir.join("scenes.toml");
+        std::fs::write(
+            &scenes,
+            format!(
+                "[[scene]]\nid = \"four_way\"\nmap = \"{}\"\n",
+                map.canonicalize().unwrap().display()
+            ),
+        )
+        .unwrap();
+        let address = format!("127.0.0.1:{}", free_port());
+        let child = Command::new(env!("CARGO_BIN_EXE_trafficmesh-traffic-grpc"))
+            .args(["--listen", &address, "--scenes"])
+            .arg(&scenes)
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .unwrap();
+        let deadline = Instant::now() + Duration::from_secs(30);
+        while TcpStream::connect(&address).is_err() {
+            assert!(
+                Instant::now() < deadline,
+                "the service listens on {address}"
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        Service { child, address }
+    }
+
+    /// Waits up to 10 s for the process to end; its exit status.
+    fn wait(&mut self) -> std::process::ExitStatus {
+        let deadline = Instant::now() + Duration::from_secs(10);
+        loop {
+            if let Some(status) = self.child.try_wait().unwrap() {
+                return status;
+            }
+            assert!(Instant::now() < deadline, "the service stops");
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+impl Drop for Service {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// Document 003's usage example end to end, then the behaviour and error
+/// checks of client.py: order and count of the answers, a pose at exactly
+/// each time_query_us, logged poses unchanged before handover, an NPC that
+/// stops behind an ego standing in its lane (and drives past without it),
+/// the same answers for the same seed and inputs, sessions isolated, every
+/// error its status code; shut_down stops the service.
+#[test]
+fn a_generated_python_client_runs_the_usage_example_and_the_error_cases() {
+    let Some(python) = python() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let stubs = dir.path().join("stubs");
+    std::fs::create_dir(&stubs).unwrap();
+    let proto = crate_dir().join("proto");
+    let generated = Command::new(&python)
+        .args(["-m", "grpc_tools.protoc", "-I"])
+        .arg(&proto)
+        .arg(format!("--python_out={}", stubs.display()))
+        .arg(format!("--grpc_python_out={}", stubs.display()))
+        .arg(proto.join("common.proto"))
+        .arg(proto.join("traffic.proto"))
+        .output()
+        .unwrap();
+    assert!(
+        generated.status.success(),
+        "grpc_tools.protoc: {}",
+        String::from_utf8_lossy(&generated.stderr)
+    );
+    let mut service = Service::start(dir.path());
+    let out = Command::new(&python)
+        .arg(crate_dir().join("tests/client.py"))
+        .arg(&stubs)
+        .arg(&service.address)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success() && String::from_utf8_lossy(&out.stdout).contains("ok"),
+        "client.py:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(
+        service.wait().success(),
+        "shut_down stops the service cleanly"
+    );
+}
+
+#[test]
+fn sigterm_stops_the_service_gracefully() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut service = Service::start(dir.path());
+    // SAFETY: kill(2) on our own child's pid.
+    unsafe { libc::kill(service.child.id() as i32, libc::SIGTERM) };
+    assert!(service.wait().success());
+}

@@ -1,0 +1,445 @@
+//! A traffic session as a simulation runtime drives one: its logged actors
+//! follow their logs until handover, then trafficmesh's NPC model drives
+//! them (on a lane: lanes, lights, right of way and the vehicle in front;
+//! off the lanes: on at their heading and speed, braking for what is in
+//! front), reacting to the bodies the client moves (the ego). Deterministic
+//! from the seed and the inputs.
+
+mod free;
+mod log;
+mod placement;
+
+use glam::{DQuat, DVec2, DVec3};
+
+pub use log::{PoseAt, PoseLog, yaw_of};
+
+use crate::ego::Ego;
+use crate::network::LaneNetwork;
+use crate::vehicle::VehicleId;
+use crate::world::{World, WorldConfig};
+use free::FreeBody;
+
+/// How a session runs.
+#[derive(Clone, Copy, Debug)]
+pub struct SessionConfig {
+    /// History an actor needs before the model takes it over.
+    pub min_history_us: u64,
+    /// Forecast poses after the queried time: how far and how often.
+    pub forecast_horizon_us: u64,
+    pub forecast_step_us: u64,
+    /// The simulation's tick, microseconds.
+    pub tick_us: u64,
+}
+
+impl Default for SessionConfig {
+    fn default() -> Self {
+        SessionConfig {
+            min_history_us: 1_000_000,
+            forecast_horizon_us: 2_000_000,
+            forecast_step_us: 100_000,
+            tick_us: 20_000,
+        }
+    }
+}
+
+/// A logged actor as the session starts.
+#[derive(Clone, Debug)]
+pub struct Actor {
+    pub id: String,
+    /// Box size: length, width, height.
+    pub size: DVec3,
+    pub is_static: bool,
+    pub log: Vec<PoseAt>,
+}
+
+/// What a request got wrong; the session is left as it was.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum SessionError {
+    #[error("time_query_us {asked} is before the session's time {now}: time never goes backwards")]
+    TimeBackwards { now: u64, asked: u64 },
+    #[error("object '{0}' has an empty trajectory")]
+    EmptyTrajectory(String),
+    #[error("object '{object}' has poses only up to {last_us} us, short of time_query_us {asked}")]
+    MissingPoses {
+        object: String,
+        last_us: u64,
+        asked: u64,
+    },
+    #[error("object '{0}' has a pose that is not a finite number (NaN or infinite)")]
+    NotFinite(String),
+    #[error("object '{0}' appears twice in the session request")]
+    DuplicateObject(String),
+}
+
+/// Who moves an actor now.
+#[derive(Clone, Debug)]
+enum Control {
+    /// Its log, until handover.
+    Log,
+    /// The NPC model, as this vehicle of the world.
+    Npc { vehicle: VehicleId, lift: f64 },
+    /// On at its heading, braking for what is in front (off the lanes, or
+    /// with no map).
+    Free(FreeBody),
+    /// The client's updates.
+    Client,
+    /// Where it stands: static actors, and NPCs that left the map.
+    Parked(PoseAt),
+}
+
+struct Tracked {
+    actor: Actor,
+    log: PoseLog,
+    control: Control,
+    /// Its pose at the session's time.
+    pose: Option<PoseAt>,
+}
+
+/// One actor's answer: its pose at the queried time, then its forecast.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ActorAnswer {
+    pub id: String,
+    pub poses: Vec<PoseAt>,
+}
+
+pub struct TrafficSession {
+    world: Option<World>,
+    actors: Vec<Tracked>,
+    /// Bodies only the client moves (the ego), by id, in first-seen order.
+    clients: Vec<(String, PoseLog, DVec3)>,
+    handover_us: u64,
+    /// The session's time; None before the first request.
+    now_us: Option<u64>,
+    config: SessionConfig,
+}
+
+impl TrafficSession {
+    /// A session on `network` (None: no map; every actor handed over drives
+    /// free). `seed` draws the NPCs' choices.
+    pub fn new(
+        network: Option<LaneNetwork>,
+        actors: Vec<Actor>,
+        seed: u64,
+        handover_us: u64,
+        config: SessionConfig,
+    ) -> Result<Self, SessionError> {
+        let mut seen = std::collections::HashSet::new();
+        for a in &actors {
+            if !seen.insert(a.id.as_str()) {
+                return Err(SessionError::DuplicateObject(a.id.clone()));
+            }
+            if a.log.iter().any(|p| !p.is_finite()) || !a.size.is_finite() {
+                return Err(SessionError::NotFinite(a.id.clone()));
+            }
+        }
+        let world = network.map(|net| {
+            World::new(
+                net,
+                WorldConfig {
+                    seed,
+                    dt: config.tick_us as f64 * 1e-6,
+                    max_vehicles: actors.len().max(1),
+                    ..WorldConfig::default()
+                },
+            )
+            .without_simulators()
+        });
+        let actors = actors
+            .into_iter()
+            .map(|actor| {
+                let log = PoseLog::new(actor.log.clone());
+                let control = match (actor.is_static, log.first()) {
+                    (true, Some(first)) => Control::Parked(*first),
+                    _ => Control::Log,
+                };
+                Tracked {
+                    actor,
+                    log,
+                    control,
+                    pose: None,
+                }
+            })
+            .collect();
+        Ok(TrafficSession {
+            world,
+            actors,
+            clients: Vec::new(),
+            handover_us,
+            now_us: None,
+            config,
+        })
+    }
+
+    /// Advances to `t_us` with the client's `updates` (object id, poses up to
+    /// at least `t_us`) and answers every actor in the order given at start.
+    pub fn simulate(
+        &mut self,
+        t_us: u64,
+        updates: Vec<(String, Vec<PoseAt>)>,
+    ) -> Result<Vec<ActorAnswer>, SessionError> {
+        if let Some(now) = self.now_us
+            && t_us < now
+        {
+            return Err(SessionError::TimeBackwards { now, asked: t_us });
+        }
+        for (id, poses) in &updates {
+            let last = poses
+                .iter()
+                .map(|p| p.t_us)
+                .max()
+                .ok_or_else(|| SessionError::EmptyTrajectory(id.clone()))?;
+            if poses.iter().any(|p| !p.is_finite()) {
+                return Err(SessionError::NotFinite(id.clone()));
+            }
+            if last < t_us {
+                return Err(SessionError::MissingPoses {
+                    object: id.clone(),
+                    last_us: last,
+                    asked: t_us,
+                });
+            }
+        }
+        for (id, poses) in updates {
+            self.take_update(id, poses);
+        }
+        let start = *self.now_us.get_or_insert(t_us);
+        let mut tick = start;
+        while tick + self.config.tick_us <= t_us {
+            self.tick(tick);
+            tick += self.config.tick_us;
+        }
+        // The world's clock runs in whole ticks; the rest is extrapolated.
+        let ticks = (tick - start) / self.config.tick_us;
+        self.now_us = Some(t_us);
+        let lag = (t_us - tick) as f64 * 1e-6;
+        debug_assert!(self.world.as_ref().is_none_or(|w| w.ticks() >= ticks));
+        Ok((0..self.actors.len())
+            .map(|k| self.answer(k, t_us, lag))
+            .collect())
+    }
+
+    /// Client-moved bodies: a logged actor's updates put the client in
+    /// charge of it; others are bodies of the client's own (the ego).
+    fn take_update(&mut self, id: String, poses: Vec<PoseAt>) {
+        if let Some(a) = self.actors.iter_mut().find(|a| a.actor.id == id) {
+            if let Control::Npc { vehicle, .. } = a.control
+                && let Some(w) = &mut self.world
+            {
+                w.remove_vehicle(vehicle);
+            }
+            a.control = Control::Client;
+            a.log.extend(poses);
+            return;
+        }
+        match self.clients.iter_mut().find(|c| c.0 == id) {
+            Some(c) => c.1.extend(poses),
+            None => self
+                .clients
+                .push((id, PoseLog::new(poses), DVec3::new(4.9, 1.9, 1.5))),
+        }
+    }
+
+    /// One tick from `t_us`: hand over who is due, show the world the bodies
+    /// it does not drive, step it, move the free ones.
+    fn tick(&mut self, t_us: u64) {
+        for k in 0..self.actors.len() {
+            self.hand_over_if_due(k, t_us);
+        }
+        let bodies = self.foreign_bodies(t_us);
+        let dt = self.config.tick_us as f64 * 1e-6;
+        if let Some(w) = &mut self.world {
+            w.set_foreign_bodies(bodies.iter().map(|b| b.0).collect());
+            w.step();
+        }
+        let npcs: Vec<free::Obstacle> = self
+            .world
+            .iter()
+            .flat_map(|w| w.vehicles())
+            .map(|v| free::Obstacle {
+                center: v.front - v.heading * (v.length * 0.5),
+                length: v.length,
+                width: v.width,
+            })
+            .chain(bodies.iter().map(|b| b.1))
+            .collect();
+        for a in &mut self.actors {
+            if let Control::Free(body) = &mut a.control {
+                body.advance(dt, &npcs);
+            }
+        }
+    }
+
+    /// Hands actor `k` over to the model once it is due: not before the
+    /// handover time, and with enough history.
+    fn hand_over_if_due(&mut self, k: usize, t_us: u64) {
+        let a = &self.actors[k];
+        if !matches!(a.control, Control::Log) || t_us < self.handover_us {
+            return;
+        }
+        let Some(first) = a.log.first() else {
+            return;
+        };
+        if t_us.saturating_sub(first.t_us) < self.config.min_history_us || t_us < first.t_us {
+            return;
+        }
+        let pose = a.log.at_or_held(t_us).expect("a log with poses");
+        let velocity = a
+            .log
+            .velocity(t_us.min(a.log.last().map_or(t_us, |l| l.t_us)));
+        let speed = velocity.length();
+        let (length, width) = (a.actor.size.x, a.actor.size.y);
+        let yaw = pose.yaw();
+        let front = pose.position.truncate() + DVec2::from_angle(yaw) * (length * 0.5);
+        let placed = self.world.as_mut().and_then(|w| {
+            let (lane, s) = placement::match_lane(w.network(), front, yaw)?;
+            let kind = w.add_vehicle_kind(trafficmesh_model::VehicleKind {
+                name: format!("actor {}", a.actor.id),
+                front: length * 0.5,
+                length,
+                width,
+                driver: None,
+                idm: None,
+                class: None,
+            });
+            let name = w.network().lane(lane).name.clone();
+            let kind_name = w.network().kinds[kind].name.clone();
+            let s = s.clamp(0.0, w.network().lane(lane).length());
+            w.place_vehicle(&kind_name, &name, s, speed).ok()
+        });
+        let lift = self
+            .world
+            .as_ref()
+            .zip(placed)
+            .and_then(|(w, id)| w.vehicle(id))
+            .map_or(0.0, |v| pose.position.z - v.pose.z);
+        self.actors[k].control = match placed {
+            Some(vehicle) => Control::Npc { vehicle, lift },
+            None => Control::Free(FreeBody::new(pose, speed, length, width)),
+        };
+    }
+
+    /// The bodies the world does not drive, at `t_us`: the client's, the
+    /// actors still on their logs, parked and free ones.
+    fn foreign_bodies(&self, t_us: u64) -> Vec<(Ego, free::Obstacle)> {
+        let mut out = Vec::new();
+        let mut push = |pose: PoseAt, size: DVec3| {
+            let yaw = pose.yaw();
+            let center = pose.position.truncate();
+            let rear = center - DVec2::from_angle(yaw) * (size.x * 0.5);
+            out.push((
+                Ego {
+                    pose: crate::vehicle::Pose {
+                        x: rear.x,
+                        y: rear.y,
+                        z: pose.position.z,
+                        yaw,
+                    },
+                    length: size.x,
+                    width: size.y,
+                    front_offset: size.x,
+                },
+                free::Obstacle {
+                    center,
+                    length: size.x,
+                    width: size.y,
+                },
+            ));
+        };
+        for (_, log, size) in &self.clients {
+            if let Some(p) = log.at_or_held(t_us) {
+                push(p, *size);
+            }
+        }
+        for a in &self.actors {
+            let pose = match &a.control {
+                Control::Log | Control::Client => a.log.at(t_us),
+                Control::Parked(p) => Some(*p),
+                Control::Free(body) => Some(body.pose(t_us)),
+                Control::Npc { .. } => None,
+            };
+            if let Some(p) = pose {
+                push(p, a.actor.size);
+            }
+        }
+        out
+    }
+
+    /// Actor `k`'s pose at `t_us` and its forecast. `lag` is how far `t_us`
+    /// lies past the world's last tick, seconds.
+    fn answer(&mut self, k: usize, t_us: u64, lag: f64) -> ActorAnswer {
+        let step = self.config.forecast_step_us.max(1);
+        let later: Vec<u64> = (1..=self.config.forecast_horizon_us / step)
+            .map(|i| t_us + i * step)
+            .collect();
+        let a = &self.actors[k];
+        let held = |p: PoseAt, t: u64| PoseAt { t_us: t, ..p };
+        let poses: Vec<PoseAt> = match &a.control {
+            Control::Log | Control::Client => {
+                let now = a.log.at_or_held(t_us).or(a.pose);
+                let v = a.log.velocity(t_us);
+                std::iter::once(t_us)
+                    .chain(later.iter().copied())
+                    .filter_map(|t| {
+                        a.log.at(t).or_else(|| {
+                            now.map(|p| PoseAt {
+                                t_us: t,
+                                position: p.position + (v * ((t - t_us) as f64 * 1e-6)).extend(0.0),
+                                rotation: p.rotation,
+                            })
+                        })
+                    })
+                    .collect()
+            }
+            Control::Parked(p) => std::iter::once(t_us)
+                .chain(later.iter().copied())
+                .map(|t| held(*p, t))
+                .collect(),
+            Control::Free(body) => std::iter::once(t_us)
+                .chain(later.iter().copied())
+                .map(|t| body.pose_after(t, lag + (t - t_us) as f64 * 1e-6))
+                .collect(),
+            Control::Npc { vehicle, lift } => {
+                let world = self.world.as_ref().expect("NPCs live in a world");
+                match world.vehicle(*vehicle) {
+                    Some(v) => std::iter::once(t_us)
+                        .chain(later.iter().copied())
+                        .map(|t| {
+                            let ahead = v.speed * (lag + (t - t_us) as f64 * 1e-6);
+                            let (c, yaw) = placement::along_path(
+                                world.network(),
+                                &v.path,
+                                v.s,
+                                ahead,
+                                v.length,
+                            );
+                            PoseAt {
+                                t_us: t,
+                                position: c + DVec3::Z * *lift,
+                                rotation: DQuat::from_rotation_z(yaw),
+                            }
+                        })
+                        .collect(),
+                    None => {
+                        // It drove off the map: it stays where it was last seen.
+                        let last = a.pose.unwrap_or(PoseAt {
+                            t_us,
+                            position: DVec3::ZERO,
+                            rotation: DQuat::IDENTITY,
+                        });
+                        self.actors[k].control = Control::Parked(last);
+                        std::iter::once(t_us)
+                            .chain(later.iter().copied())
+                            .map(|t| held(last, t))
+                            .collect()
+                    }
+                }
+            }
+        };
+        let a = &mut self.actors[k];
+        a.pose = poses.first().copied();
+        ActorAnswer {
+            id: a.actor.id.clone(),
+            poses,
+        }
+    }
+}

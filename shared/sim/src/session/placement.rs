@@ -1,0 +1,67 @@
+//! Where a body stands on the lane network: the lane a logged actor is
+//! driving on when it is handed over, and a vehicle's centre some metres
+//! further along its path (its forecast).
+
+use glam::{DVec2, DVec3};
+
+use crate::network::{LaneId, LaneNetwork};
+
+/// A body is on a lane when its front bumper is this near the lane's line,
+/// metres...
+const MAX_OFFSET: f64 = 2.0;
+/// ...and it heads along the lane within this, radians (45°).
+const MAX_HEADING_GAP: f64 = std::f64::consts::FRAC_PI_4;
+
+/// The lane (not a junction lane when a road lane fits) and front-bumper arc
+/// length of a body whose front bumper is at `front`, heading `yaw`.
+pub fn match_lane(net: &LaneNetwork, front: DVec2, yaw: f64) -> Option<(LaneId, f64)> {
+    let heading = DVec2::from_angle(yaw);
+    let mut best: Option<(bool, f64, LaneId, f64)> = None;
+    for (i, lane) in net.lanes.iter().enumerate() {
+        let s = lane.line.project(front);
+        let (p, _) = lane.line.point_at(s);
+        let offset = p.distance(front);
+        if offset > MAX_OFFSET || s <= 0.0 && lane.line.length() > 0.0 && offset > 0.5 {
+            continue;
+        }
+        let ahead = lane.line.point_at((s + 0.5).min(lane.line.length())).0
+            - lane.line.point_at((s - 0.5).max(0.0)).0;
+        if ahead.length() == 0.0 || ahead.normalize().angle_to(heading).abs() > MAX_HEADING_GAP {
+            continue;
+        }
+        let key = (lane.intersection, offset, i as LaneId, s);
+        if best.is_none_or(|b| (key.0, key.1) < (b.0, b.1)) {
+            best = Some(key);
+        }
+    }
+    best.map(|(_, _, lane, s)| (lane, s))
+}
+
+/// The centre (with the lane's height) and heading of a body of `length`
+/// whose front bumper is `ahead` metres further along `path` than arc
+/// length `s` of its first lane; past the path's end, straight on.
+pub fn along_path(
+    net: &LaneNetwork,
+    path: &[LaneId],
+    s: f64,
+    ahead: f64,
+    length: f64,
+) -> (DVec3, f64) {
+    let mut at = s + ahead - length * 0.5;
+    for (k, &lane) in path.iter().enumerate() {
+        let line = &net.lane(lane).line;
+        if at <= line.length() || k + 1 == path.len() {
+            let (p, z) = line.point_at(at);
+            let d = line.point_at((at + 0.5).min(line.length())).0
+                - line.point_at((at - 0.5).max(0.0)).0;
+            let yaw = if d.length() > 0.0 {
+                d.y.atan2(d.x)
+            } else {
+                0.0
+            };
+            return (p.extend(z), yaw);
+        }
+        at -= line.length();
+    }
+    (DVec3::ZERO, 0.0)
+}
