@@ -3,25 +3,13 @@
 //! replays the logged actors until handover, then trafficmesh's NPC model
 //! drives them, reacting to the ego.
 
-mod catalogue;
-mod service;
-
 use std::net::SocketAddr;
 use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Parser;
 use trafficmesh_sim::session::SessionConfig;
-
-mod proto {
-    pub mod common {
-        tonic::include_proto!("common");
-    }
-    pub mod traffic {
-        tonic::include_proto!("traffic");
-    }
-    pub const DESCRIPTORS: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/descriptors.bin"));
-}
+use trafficmesh_traffic_grpc::{catalogue, serve, service};
 
 /// Serves `traffic.TrafficService` (start_session, simulate, close_session,
 /// get_metadata, get_available_scenes, shut_down), the standard gRPC health
@@ -75,23 +63,6 @@ async fn main() -> Result<()> {
     let (stop, mut stopped) = tokio::sync::watch::channel(false);
     let gateway = service::Gateway::new(scenes, config, stop.clone());
 
-    let (health, health_service) = tonic_health::server::health_reporter();
-    health
-        .set_serving::<proto::traffic::traffic_service_server::TrafficServiceServer<service::Gateway>>()
-        .await;
-    // Both reflection versions: grpcurl asks for v1, older tools for v1alpha.
-    let reflection = || {
-        tonic_reflection::server::Builder::configure()
-            .register_encoded_file_descriptor_set(proto::DESCRIPTORS)
-            .register_encoded_file_descriptor_set(tonic_health::pb::FILE_DESCRIPTOR_SET)
-    };
-    let reflection_v1 = reflection()
-        .build_v1()
-        .context("building the reflection service")?;
-    let reflection_v1alpha = reflection()
-        .build_v1alpha()
-        .context("building the reflection service")?;
-
     let incoming = tonic::transport::server::TcpIncoming::bind(args.listen)
         .with_context(|| format!("binding {}", args.listen))?
         .with_nodelay(Some(true));
@@ -105,14 +76,7 @@ async fn main() -> Result<()> {
             _ = stopped.wait_for(|s| *s) => {}
         }
     };
-    tonic::transport::Server::builder()
-        .add_service(health_service)
-        .add_service(reflection_v1)
-        .add_service(reflection_v1alpha)
-        .add_service(proto::traffic::traffic_service_server::TrafficServiceServer::new(gateway))
-        .serve_with_incoming_shutdown(incoming, signals)
-        .await
-        .context("serving gRPC")?;
+    serve(gateway, incoming, signals).await?;
     tracing::info!("traffic service stopped");
     Ok(())
 }

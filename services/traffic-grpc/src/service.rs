@@ -185,7 +185,10 @@ impl TrafficService for Gateway {
     ) -> Result<Response<TrafficReturn>, Status> {
         let r = request.into_inner();
         let session = self.session(&r.session_uuid)?;
-        let answer = tokio::task::spawn_blocking(move || {
+        // On the simulation's own thread pool: the world's phases then run
+        // on the thread that steps it, not handed across threads each time.
+        let (reply, answer) = tokio::sync::oneshot::channel();
+        rayon::spawn(move || {
             let mut s = session.lock().expect("a session lock is never poisoned");
             let offset = s.offset;
             let updates = r
@@ -193,7 +196,8 @@ impl TrafficService for Gateway {
                 .iter()
                 .map(|u| (u.object_id.clone(), poses_of(&u.trajectory, offset)))
                 .collect();
-            s.core
+            let answer = s
+                .core
                 .simulate(r.time_query_us, updates)
                 .map(|answers| TrafficReturn {
                     object_trajectory_updates: answers
@@ -206,10 +210,12 @@ impl TrafficService for Gateway {
                         })
                         .collect(),
                 })
-                .map_err(invalid)
-        })
-        .await
-        .map_err(|e| Status::internal(format!("the session's step failed: {e}")))??;
+                .map_err(invalid);
+            let _ = reply.send(answer);
+        });
+        let answer = answer
+            .await
+            .map_err(|_| Status::internal("the session's step failed"))??;
         Ok(Response::new(answer))
     }
 

@@ -26,6 +26,9 @@ pub enum BenchCommand {
     /// A queue of 20 cars released by a green light: discharge headway and
     /// saturation flow per lane of a driver model.
     Saturation(super::bench_saturation::SaturationArgs),
+    /// The traffic service (gRPC): simulate() latency with N concurrent
+    /// sessions of 200 actors each, called at 10 Hz as a runtime calls it.
+    TrafficService(super::bench_traffic_service::TrafficServiceArgs),
 }
 
 #[derive(Args)]
@@ -88,6 +91,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Admin(a) => return super::bench_admin::run(a),
         BenchCommand::VsSumo(a) => return super::bench_vs_sumo::run(a),
         BenchCommand::Saturation(a) => return super::bench_saturation::run(a),
+        BenchCommand::TrafficService(a) => return super::bench_traffic_service::run(a),
     };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");

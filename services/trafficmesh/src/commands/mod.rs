@@ -7,6 +7,8 @@ pub mod bench_cluster;
 #[cfg(feature = "bench")]
 pub mod bench_saturation;
 #[cfg(feature = "bench")]
+pub mod bench_traffic_service;
+#[cfg(feature = "bench")]
 mod bench_up;
 #[cfg(feature = "bench")]
 pub mod bench_vs_sumo;

@@ -104,6 +104,7 @@ pub struct ActorAnswer {
 
 pub struct TrafficSession {
     world: Option<World>,
+    lane_boxes: Option<placement::LaneBoxes>,
     actors: Vec<Tracked>,
     /// Bodies only the client moves (the ego), by id, in first-seen order.
     clients: Vec<(String, PoseLog, DVec3)>,
@@ -144,6 +145,9 @@ impl TrafficSession {
             )
             .without_simulators()
         });
+        let lane_boxes = world
+            .as_ref()
+            .map(|w| placement::LaneBoxes::new(w.network()));
         let actors = actors
             .into_iter()
             .map(|actor| {
@@ -162,6 +166,7 @@ impl TrafficSession {
             .collect();
         Ok(TrafficSession {
             world,
+            lane_boxes,
             actors,
             clients: Vec::new(),
             handover_us,
@@ -290,22 +295,27 @@ impl TrafficSession {
         let (length, width) = (a.actor.size.x, a.actor.size.y);
         let yaw = pose.yaw();
         let front = pose.position.truncate() + DVec2::from_angle(yaw) * (length * 0.5);
-        let placed = self.world.as_mut().and_then(|w| {
-            let (lane, s) = placement::match_lane(w.network(), front, yaw)?;
-            let kind = w.add_vehicle_kind(trafficmesh_model::VehicleKind {
-                name: format!("actor {}", a.actor.id),
-                front: length * 0.5,
-                length,
-                width,
-                driver: None,
-                idm: None,
-                class: None,
+        let boxes = &self.lane_boxes;
+        let placed = self
+            .world
+            .as_mut()
+            .zip(boxes.as_ref())
+            .and_then(|(w, boxes)| {
+                let (lane, s) = placement::match_lane(w.network(), boxes, front, yaw)?;
+                let kind = w.add_vehicle_kind(trafficmesh_model::VehicleKind {
+                    name: format!("actor {}", a.actor.id),
+                    front: length * 0.5,
+                    length,
+                    width,
+                    driver: None,
+                    idm: None,
+                    class: None,
+                });
+                let name = w.network().lane(lane).name.clone();
+                let kind_name = w.network().kinds[kind].name.clone();
+                let s = s.clamp(0.0, w.network().lane(lane).length());
+                w.place_vehicle(&kind_name, &name, s, speed).ok()
             });
-            let name = w.network().lane(lane).name.clone();
-            let kind_name = w.network().kinds[kind].name.clone();
-            let s = s.clamp(0.0, w.network().lane(lane).length());
-            w.place_vehicle(&kind_name, &name, s, speed).ok()
-        });
         let lift = self
             .world
             .as_ref()

@@ -12,12 +12,46 @@ const MAX_OFFSET: f64 = 2.0;
 /// ...and it heads along the lane within this, radians (45°).
 const MAX_HEADING_GAP: f64 = std::f64::consts::FRAC_PI_4;
 
+/// Each lane's bounding box grown by [`MAX_OFFSET`], so that a match skips
+/// the lanes that cannot hold a body at once.
+pub struct LaneBoxes(Vec<(DVec2, DVec2)>);
+
+impl LaneBoxes {
+    pub fn new(net: &LaneNetwork) -> Self {
+        LaneBoxes(
+            net.lanes
+                .iter()
+                .map(|l| {
+                    let (lo, hi) = l.line.vertices.iter().fold(
+                        (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
+                        |(lo, hi), v| (lo.min(v.point), hi.max(v.point)),
+                    );
+                    (lo - MAX_OFFSET, hi + MAX_OFFSET)
+                })
+                .collect(),
+        )
+    }
+
+    fn may_hold(&self, lane: usize, p: DVec2) -> bool {
+        let (lo, hi) = self.0[lane];
+        p.cmpge(lo).all() && p.cmple(hi).all()
+    }
+}
+
 /// The lane (not a junction lane when a road lane fits) and front-bumper arc
 /// length of a body whose front bumper is at `front`, heading `yaw`.
-pub fn match_lane(net: &LaneNetwork, front: DVec2, yaw: f64) -> Option<(LaneId, f64)> {
+pub fn match_lane(
+    net: &LaneNetwork,
+    boxes: &LaneBoxes,
+    front: DVec2,
+    yaw: f64,
+) -> Option<(LaneId, f64)> {
     let heading = DVec2::from_angle(yaw);
     let mut best: Option<(bool, f64, LaneId, f64)> = None;
     for (i, lane) in net.lanes.iter().enumerate() {
+        if !boxes.may_hold(i, front) {
+            continue;
+        }
         let s = lane.line.project(front);
         let (p, _) = lane.line.point_at(s);
         let offset = p.distance(front);

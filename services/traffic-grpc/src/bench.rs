@@ -1,0 +1,240 @@
+//! `trafficmesh bench traffic-service`: simulate() latency as a runtime sees
+//! it. The service runs in-process on a loopback port; each session is a
+//! gRPC client over TCP with `objects` logged actors on a generated grid,
+//! called every 100 ms (the runtime's control step) with the ego's poses,
+//! the sessions' calls spread over the step.
+
+use std::collections::BTreeMap;
+use std::time::{Duration, Instant};
+
+use anyhow::{Context, Result};
+use glam::DVec2;
+use serde::Serialize;
+use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_sim::LaneNetwork;
+use trafficmesh_sim::session::SessionConfig;
+
+use crate::catalogue::Scene;
+use crate::proto::common::{Aabb, Pose, PoseAtTime, Quat, Trajectory, Vec3};
+use crate::proto::traffic::traffic_service_client::TrafficServiceClient;
+use crate::proto::traffic::{
+    ObjectTrajectory, ObjectTrajectoryUpdate, TrafficRequest, TrafficSessionRequest,
+};
+
+/// The runtime's control step, microseconds.
+const STEP_US: u64 = 100_000;
+/// Logged actors' speed along their lanes, m/s.
+const LOG_SPEED: f64 = 8.0;
+
+pub struct BenchOptions {
+    pub objects: usize,
+    /// Concurrent session counts to measure, one run each.
+    pub sessions: Vec<usize>,
+    /// Simulated seconds per session.
+    pub seconds: u64,
+}
+
+#[derive(Serialize)]
+pub struct BenchRow {
+    pub sessions: usize,
+    pub objects: usize,
+    pub calls: usize,
+    pub p50_ms: f64,
+    pub p99_ms: f64,
+    pub max_ms: f64,
+}
+
+/// The grid the sessions drive on: 6 x 6 junctions, 200 m blocks.
+fn grid() -> Result<LaneNetwork> {
+    let map = grid_map(&GridOptions {
+        size: 6,
+        ..GridOptions::default()
+    });
+    LaneNetwork::build(&map).map_err(|p| anyhow::anyhow!("the bench grid: {p:?}"))
+}
+
+fn pose_at(t_us: u64, p: DVec2, yaw: f64) -> PoseAtTime {
+    PoseAtTime {
+        pose: Some(Pose {
+            vec: Some(Vec3 {
+                x: p.x as f32,
+                y: p.y as f32,
+                z: 0.75,
+            }),
+            quat: Some(Quat {
+                w: (yaw * 0.5).cos() as f32,
+                x: 0.0,
+                y: 0.0,
+                z: (yaw * 0.5).sin() as f32,
+            }),
+        }),
+        timestamp_us: t_us,
+    }
+}
+
+/// `n` actors, each logged for 1.5 s along a road lane of `net` (up to four
+/// per lane, 30 m apart), the first 1.5 s of a 10 Hz log.
+fn actors(net: &LaneNetwork, n: usize) -> Vec<ObjectTrajectory> {
+    let slots = net
+        .lanes
+        .iter()
+        .filter(|l| !l.intersection && l.line.length() > 140.0)
+        .flat_map(|l| (0..4).map(move |k| (l, 10.0 + 30.0 * k as f64)));
+    slots
+        .take(n)
+        .enumerate()
+        .map(|(i, (lane, s0))| {
+            let poses = (0..=15)
+                .map(|k| {
+                    let s = s0 + LOG_SPEED * k as f64 * 0.1;
+                    let (p, _) = lane.line.point_at(s);
+                    let (q, _) = lane.line.point_at(s + 0.5);
+                    let d = q - p;
+                    pose_at(k * STEP_US, p, d.y.atan2(d.x))
+                })
+                .collect();
+            ObjectTrajectory {
+                aabb: Some(Aabb {
+                    size_x: 4.5,
+                    size_y: 1.9,
+                    size_z: 1.5,
+                }),
+                trajectory: Some(Trajectory { poses }),
+                object_id: format!("actor-{i}"),
+                is_static: false,
+                label_class: "car".into(),
+            }
+        })
+        .collect()
+}
+
+/// One session's calls: start, then `seconds` at 10 Hz paced in real time
+/// from `phase`; the latency of each simulate call.
+async fn session(
+    address: String,
+    id: String,
+    objects: Vec<ObjectTrajectory>,
+    seconds: u64,
+    phase: Duration,
+) -> Result<Vec<Duration>> {
+    let actors = objects.len();
+    let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))?
+        .tcp_nodelay(true)
+        .initial_stream_window_size(crate::WINDOW)
+        .initial_connection_window_size(4 * crate::WINDOW)
+        .connect()
+        .await?;
+    let mut client = TrafficServiceClient::new(channel);
+    client
+        .start_session(TrafficSessionRequest {
+            session_uuid: id.clone(),
+            map_id: "grid".into(),
+            random_seed: 7,
+            logged_object_trajectories: objects,
+            handover_time_us: 600_000,
+        })
+        .await?;
+    tokio::time::sleep(phase).await;
+    let mut tick = tokio::time::interval(Duration::from_micros(STEP_US));
+    tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
+    let mut latencies = Vec::new();
+    for t in (STEP_US..=seconds * 1_000_000).step_by(STEP_US as usize) {
+        tick.tick().await;
+        let ego = ObjectTrajectoryUpdate {
+            object_id: "ego".into(),
+            trajectory: Some(Trajectory {
+                poses: vec![pose_at(t, DVec2::new(-500.0, -500.0), 0.0)],
+            }),
+        };
+        let started = Instant::now();
+        let answer = client
+            .simulate(TrafficRequest {
+                session_uuid: id.clone(),
+                time_query_us: t,
+                object_trajectory_updates: vec![ego],
+            })
+            .await?;
+        latencies.push(started.elapsed());
+        anyhow::ensure!(
+            answer.get_ref().object_trajectory_updates.len() == actors,
+            "session {id} answered {} of its {actors} actors",
+            answer.get_ref().object_trajectory_updates.len()
+        );
+    }
+    client
+        .close_session(crate::proto::traffic::TrafficSessionCloseRequest { session_uuid: id })
+        .await?;
+    Ok(latencies)
+}
+
+fn quantile(sorted: &[Duration], q: f64) -> f64 {
+    let k = ((sorted.len() as f64 * q).ceil() as usize).clamp(1, sorted.len()) - 1;
+    sorted[k].as_secs_f64() * 1e3
+}
+
+/// Runs the bench: one row per session count.
+pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
+    let net = grid()?;
+    let objects = actors(&net, o.objects);
+    anyhow::ensure!(
+        objects.len() == o.objects,
+        "the bench grid holds {} actors, fewer than --objects {}",
+        objects.len(),
+        o.objects
+    );
+    let mut scenes = BTreeMap::new();
+    scenes.insert(
+        "grid".to_string(),
+        Scene {
+            network: net,
+            offset: glam::DVec3::ZERO,
+        },
+    );
+    let (stop, _) = tokio::sync::watch::channel(false);
+    let gateway = crate::service::Gateway::new(
+        scenes,
+        SessionConfig {
+            forecast_horizon_us: 0,
+            ..SessionConfig::default()
+        },
+        stop,
+    );
+    let incoming = tonic::transport::server::TcpIncoming::bind("127.0.0.1:0".parse()?)
+        .context("binding a loopback port")?
+        .with_nodelay(Some(true));
+    let address = incoming.local_addr()?.to_string();
+    let (halt, halted) = tokio::sync::oneshot::channel::<()>();
+    let server = tokio::spawn(crate::serve(gateway, incoming, async {
+        let _ = halted.await;
+    }));
+    let mut rows = Vec::new();
+    for (run, &n) in o.sessions.iter().enumerate() {
+        let runs: Vec<_> = (0..n)
+            .map(|k| {
+                tokio::spawn(session(
+                    address.clone(),
+                    format!("bench-{run}-{k}"),
+                    objects.clone(),
+                    o.seconds,
+                    Duration::from_micros(STEP_US * k as u64 / n as u64),
+                ))
+            })
+            .collect();
+        let mut all = Vec::new();
+        for r in runs {
+            all.extend(r.await??);
+        }
+        all.sort();
+        rows.push(BenchRow {
+            sessions: n,
+            objects: o.objects,
+            calls: all.len(),
+            p50_ms: quantile(&all, 0.5),
+            p99_ms: quantile(&all, 0.99),
+            max_ms: quantile(&all, 1.0),
+        });
+    }
+    let _ = halt.send(());
+    server.await??;
+    Ok(rows)
+}

@@ -1,0 +1,46 @@
+//! `trafficmesh bench traffic-service`: simulate() latency of the traffic
+//! service (gRPC) per concurrent session count, measured by real gRPC clients
+//! over loopback TCP calling at the runtime's 10 Hz.
+
+use anyhow::{Result, bail};
+use clap::Args;
+use trafficmesh_traffic_grpc::bench::{BenchOptions, run as run_bench};
+
+#[derive(Args)]
+pub struct TrafficServiceArgs {
+    /// Logged actors per session, handed over to the NPC model after 1 s.
+    #[arg(long, default_value_t = 200)]
+    objects: usize,
+    /// Concurrent session counts, one run each (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "1,50")]
+    sessions: Vec<usize>,
+    /// Simulated seconds per session (10 calls a second, paced in real time).
+    #[arg(long, default_value_t = 10)]
+    seconds: u64,
+    /// Print one JSON object `{"rows": [...]}` instead of a table.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn run(a: TrafficServiceArgs) -> Result<()> {
+    if a.sessions.contains(&0) || a.objects == 0 || a.seconds == 0 {
+        bail!("--objects, --sessions and --seconds must be positive");
+    }
+    let rows = tokio::runtime::Runtime::new()?.block_on(run_bench(&BenchOptions {
+        objects: a.objects,
+        sessions: a.sessions,
+        seconds: a.seconds,
+    }))?;
+    if a.json {
+        println!("{}", serde_json::json!({ "rows": rows }));
+        return Ok(());
+    }
+    println!("sessions  objects  calls   p50 ms   p99 ms   max ms");
+    for r in rows {
+        println!(
+            "{:>8} {:>8} {:>6} {:>8.2} {:>8.2} {:>8.2}",
+            r.sessions, r.objects, r.calls, r.p50_ms, r.p99_ms, r.max_ms
+        );
+    }
+    Ok(())
+}
