@@ -528,6 +528,38 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
     assert!(stdout.contains("OK"), "{stdout}\n{stderr}");
 }
 
+/// `trafficmesh up` starts the traffic service on the cluster's map: a
+/// runtime's gRPC client finds the map among the scenes and drives a session,
+/// and a Zenoh subscriber on the cluster's bus sees its actors.
+#[test]
+fn up_starts_the_traffic_service_on_the_clusters_map() {
+    let Some(python) = python_with(
+        "grpc_tools, zenoh",
+        "grpcio-tools==1.85.1 eclipse-zenoh==1.10.2",
+    ) else {
+        return;
+    };
+    let port = free_port();
+    let cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
+        traffic_service_port: Some(port),
+        ..Cluster::spec("grpc", &four_way())
+    });
+    let out = std::process::Command::new(python)
+        .arg(repo().join("tests/cluster/traffic_service.py"))
+        .arg(repo().join("services/traffic-grpc/proto"))
+        .arg(format!("127.0.0.1:{port}"))
+        .args([&cluster.endpoint, &cluster.name])
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("OK"),
+        "traffic_service.py:\n{stdout}\n{}\ncluster log:\n{}",
+        String::from_utf8_lossy(&out.stderr),
+        cluster.log()
+    );
+}
+
 /// Late joiners see the current light colours and crosswalk occupancy at
 /// once, not at the next change: `trafficmesh watch` started after the
 /// cluster prints every light's colour in its first line, and a Python

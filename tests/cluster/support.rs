@@ -118,15 +118,23 @@ impl Cluster {
         backoff_ms: u64,
         with_admin: bool,
     ) -> Cluster {
-        let spec = ClusterSpec {
+        Self::launch_spec(ClusterSpec {
             seed: 7,
             stepper: stepper.into(),
             spawner: spawner.into(),
             pedestrians,
             admin_token: with_admin.then(|| TOKEN.to_string()),
             restart_backoff_ms: backoff_ms,
-            ..ClusterSpec::new(format!("t{}_{test}", std::process::id()), map)
-        };
+            ..Self::spec(test, map)
+        })
+    }
+
+    /// The tests' cluster spec: `t<pid>_<test>` on `map`.
+    pub fn spec(test: &str, map: &Path) -> ClusterSpec {
+        ClusterSpec::new(format!("t{}_{test}", std::process::id()), map)
+    }
+
+    pub fn launch_spec(spec: ClusterSpec) -> Cluster {
         let dir = LocalCluster::folder().unwrap();
         Cluster(
             LocalCluster::launch(Path::new(env!("CARGO_BIN_EXE_trafficmesh")), dir, &spec).unwrap(),

@@ -40,6 +40,33 @@ struct SceneEntry {
     offset: [f64; 3],
 }
 
+/// Adds one map file (native, SUMO net or Lanelet2, or a SUMO scenario's
+/// network) as the scene named by its file stem.
+pub fn add_file(scenes: &mut BTreeMap<String, Scene>, path: &Path) -> Result<()> {
+    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
+    let id = [".map.json", ".net.xml", ".sumocfg", ".osm"]
+        .iter()
+        .find_map(|ext| name.strip_suffix(ext))
+        .unwrap_or(name)
+        .to_string();
+    let network = if name.ends_with(".sumocfg") {
+        trafficmesh_service::load_scenario_network(path, 0)
+            .map(|(net, _, _)| net)
+            .with_context(|| format!("scene '{id}': {}", path.display()))?
+    } else {
+        trafficmesh_service::load_network(path)
+            .with_context(|| format!("scene '{id}': {}", path.display()))?
+    };
+    scenes.insert(
+        id,
+        Scene {
+            network,
+            offset: DVec3::ZERO,
+        },
+    );
+    Ok(())
+}
+
 /// Loads every scene of `path` (a directory or a TOML list), naming the
 /// entry and file of any that fails.
 pub fn load(path: &Path) -> Result<BTreeMap<String, Scene>> {

@@ -8,6 +8,11 @@ use glam::{DQuat, DVec3};
 use tonic::{Request, Response, Status};
 use trafficmesh_sim::session::{Actor, PoseAt, SessionConfig, SessionError, TrafficSession};
 
+use trafficmesh_bus::Bus;
+use trafficmesh_protocol::topics;
+use trafficmesh_protocol::wire::{SessionObject, SessionObjects};
+use trafficmesh_sim::session::{ActorAnswer, yaw_of};
+
 use crate::catalogue::Scene;
 use crate::proto::common::{
     self, AvailableScenesReturn, Empty, PoseAtTime, SessionRequestStatus, Trajectory,
@@ -25,6 +30,9 @@ struct Session {
     core: TrafficSession,
     /// Log frame + offset = map frame.
     offset: DVec3,
+    map_id: String,
+    /// Each actor's box size, in the request's order.
+    sizes: Vec<DVec3>,
 }
 
 pub struct Gateway {
@@ -32,6 +40,8 @@ pub struct Gateway {
     config: SessionConfig,
     sessions: Mutex<HashMap<String, Arc<Mutex<Session>>>>,
     shutdown: tokio::sync::watch::Sender<bool>,
+    /// Where each answer's actors are published for viewers.
+    bus: Option<Arc<Bus>>,
 }
 
 impl Gateway {
@@ -45,7 +55,14 @@ impl Gateway {
             config,
             sessions: Mutex::new(HashMap::new()),
             shutdown,
+            bus: None,
         }
+    }
+
+    /// Publishes every answer on `bus` under its session id.
+    pub fn with_bus(mut self, bus: Arc<Bus>) -> Self {
+        self.bus = Some(bus);
+        self
     }
 
     fn session(&self, id: &str) -> Result<Arc<Mutex<Session>>, Status> {
@@ -102,6 +119,33 @@ fn poses_of(t: &Option<Trajectory>, offset: DVec3) -> Vec<PoseAt> {
         .unwrap_or_default()
 }
 
+/// An answer as viewers on the bus see it: box centres in the map frame.
+fn view_of(id: &str, s: &Session, time_us: u64, answers: &[ActorAnswer]) -> SessionObjects {
+    SessionObjects {
+        session: id.to_string(),
+        map_id: s.map_id.clone(),
+        time_us,
+        objects: answers
+            .iter()
+            .zip(&s.sizes)
+            .filter_map(|(a, size)| {
+                let p = a.poses.first()?;
+                Some(SessionObject {
+                    id: a.id.clone(),
+                    x: p.position.x,
+                    y: p.position.y,
+                    z: p.position.z,
+                    yaw: yaw_of(p.rotation),
+                    length: size.x,
+                    width: size.y,
+                    height: size.z,
+                    driver: a.driver.to_string(),
+                })
+            })
+            .collect(),
+    }
+}
+
 fn invalid(e: SessionError) -> Status {
     Status::invalid_argument(e.to_string())
 }
@@ -125,6 +169,14 @@ impl TrafficService for Gateway {
             );
         }
         let offset = scene.map_or(DVec3::ZERO, |s| s.offset);
+        let sizes: Vec<DVec3> = r
+            .logged_object_trajectories
+            .iter()
+            .map(|o| {
+                let a = o.aabb.unwrap_or_default();
+                DVec3::new(a.size_x as f64, a.size_y as f64, a.size_z as f64)
+            })
+            .collect();
         let mut actors = Vec::with_capacity(r.logged_object_trajectories.len());
         for o in &r.logged_object_trajectories {
             let log = poses_of(&o.trajectory, offset);
@@ -160,7 +212,12 @@ impl TrafficService for Gateway {
         tracing::info!(session = %r.session_uuid, map_id = %r.map_id, objects = r.logged_object_trajectories.len(), "session started");
         sessions.insert(
             r.session_uuid,
-            Arc::new(Mutex::new(Session { core, offset })),
+            Arc::new(Mutex::new(Session {
+                core,
+                offset,
+                map_id: r.map_id.clone(),
+                sizes,
+            })),
         );
         Ok(Response::new(SessionRequestStatus {}))
     }
@@ -185,6 +242,9 @@ impl TrafficService for Gateway {
     ) -> Result<Response<TrafficReturn>, Status> {
         let r = request.into_inner();
         let session = self.session(&r.session_uuid)?;
+        let bus = self.bus.clone();
+        let watched = bus.is_some();
+        let id = r.session_uuid.clone();
         // On the simulation's own thread pool: the world's phases then run
         // on the thread that steps it, not handed across threads each time.
         let (reply, answer) = tokio::sync::oneshot::channel();
@@ -196,9 +256,12 @@ impl TrafficService for Gateway {
                 .iter()
                 .map(|u| (u.object_id.clone(), poses_of(&u.trajectory, offset)))
                 .collect();
-            let answer = s
-                .core
-                .simulate(r.time_query_us, updates)
+            let answers = s.core.simulate(r.time_query_us, updates);
+            let view = match (&answers, watched) {
+                (Ok(answers), true) => Some(view_of(&id, &s, r.time_query_us, answers)),
+                _ => None,
+            };
+            let answer = answers
                 .map(|answers| TrafficReturn {
                     object_trajectory_updates: answers
                         .into_iter()
@@ -211,11 +274,23 @@ impl TrafficService for Gateway {
                         .collect(),
                 })
                 .map_err(invalid);
-            let _ = reply.send(answer);
+            let _ = reply.send((answer, view));
         });
-        let answer = answer
+        let (answer, view) = answer
             .await
-            .map_err(|_| Status::internal("the session's step failed"))??;
+            .map_err(|_| Status::internal("the session's step failed"))?;
+        if let (Some(bus), Some(view)) = (bus, view) {
+            // Viewers never hold up the runtime's answer.
+            tokio::spawn(async move {
+                if let Err(e) = bus
+                    .publish_at(&topics::TRAFFIC_SESSION, &view.session, &view)
+                    .await
+                {
+                    tracing::debug!(session = %view.session, "not published: {e}");
+                }
+            });
+        }
+        let answer = answer?;
         Ok(Response::new(answer))
     }
 

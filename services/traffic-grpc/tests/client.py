@@ -2,11 +2,19 @@
 from the project's .proto files: document 003's usage example end to end,
 then the checks of the traffic service's behaviour and errors.
 
-usage: client.py <generated stubs dir> <address>
+A Zenoh subscriber (eclipse-zenoh, not the code under test) watches the
+sessions' actors on the bus meanwhile.
+
+usage: client.py <generated stubs dir> <address> <zenoh endpoint> <cluster>
 """
 
+import json
 import math
 import sys
+import threading
+import time
+
+import zenoh
 
 sys.path.insert(0, sys.argv[1])
 
@@ -16,6 +24,23 @@ import traffic_pb2 as traffic  # noqa: E402
 import traffic_pb2_grpc  # noqa: E402
 
 address = sys.argv[2]
+
+seen = []
+seen_lock = threading.Lock()
+conf = zenoh.Config()
+conf.insert_json5("mode", '"peer"')
+conf.insert_json5("connect/endpoints", json.dumps([sys.argv[3]]))
+conf.insert_json5("scouting/multicast/enabled", "false")
+bus = zenoh.open(conf)
+
+
+def on_sample(sample):
+    with seen_lock:
+        seen.append((str(sample.key_expr), json.loads(sample.payload.to_string())))
+
+
+watcher = bus.declare_subscriber(f"{sys.argv[4]}/traffic/*/objects", on_sample)
+time.sleep(1.0)
 stub = traffic_pb2_grpc.TrafficServiceStub(grpc.insecure_channel(address))
 STEP = 100_000
 HANDOVER = 600_000
@@ -158,6 +183,19 @@ assert abs(car_end[1] + 1.75) < 0.2, f"the car keeps its lane: {car_end}"
 off = xy(answers[-1][1].object_trajectory_updates[2])
 assert off[0] > -80.0 + 5.0 * 9.0 and abs(off[1] - 40.0) < 1e-3, f"off the lanes it goes on straight: {off}"
 
+# Session a's actors reached a subscriber on the bus, the car handed over.
+time.sleep(0.5)
+with seen_lock:
+    views = [v for k, v in seen if k == f"{sys.argv[4]}/traffic/a/objects"]
+assert len(views) >= 90, f"{len(views)} of session a's 100 answers seen on the bus"
+last = views[-1]
+assert [o["id"] for o in last["objects"]] == ["car", "parked", "offroad"], last
+assert last["map_id"] == "four_way" and last["time_us"] == 10_000_000, last
+drivers = {o["id"]: o["driver"] for o in last["objects"]}
+assert drivers == {"car": "model", "parked": "static", "offroad": "model"}, drivers
+assert abs(last["objects"][0]["x"] - car_end[0]) < 1e-3, (last["objects"][0], car_end)
+assert views[0]["objects"][0]["driver"] == "log", views[0]
+
 # Without the ego the same car drives past where the ego stood.
 start("b")
 free_run = run("b", with_ego=False)
@@ -212,4 +250,6 @@ for s in ["a", "b", "c", "d", "f"]:
 code, _ = code_of(lambda: stub.close_session(traffic.TrafficSessionCloseRequest(session_uuid="a")))
 assert code == grpc.StatusCode.NOT_FOUND, code
 stub.shut_down(common.Empty())
+watcher.undeclare()
+bus.close()
 print("ok")

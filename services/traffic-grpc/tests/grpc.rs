@@ -46,10 +46,13 @@ fn free_port() -> u16 {
         .port()
 }
 
-/// The service on a free port with the four-way map as scene `four_way`.
+/// The service on a free port with the four-way map as scene `four_way`,
+/// on a Zenoh bus of its own (a cluster name and endpoint of this test's).
 struct Service {
     child: Child,
     address: String,
+    zenoh: String,
+    cluster: String,
 }
 
 impl Service {
@@ -65,8 +68,18 @@ impl Service {
         )
         .unwrap();
         let address = format!("127.0.0.1:{}", free_port());
+        let zenoh = format!("tcp/127.0.0.1:{}", free_port());
+        let cluster = format!("grpc-test-{}", std::process::id());
         let child = Command::new(env!("CARGO_BIN_EXE_trafficmesh-traffic-grpc"))
-            .args(["--listen", &address, "--scenes"])
+            .args([
+                "--bind",
+                &address,
+                "--listen",
+                &zenoh,
+                "--cluster",
+                &cluster,
+            ])
+            .arg("--scenes")
             .arg(&scenes)
             .stdout(Stdio::null())
             .stderr(Stdio::inherit())
@@ -80,7 +93,12 @@ impl Service {
             );
             std::thread::sleep(Duration::from_millis(50));
         }
-        Service { child, address }
+        Service {
+            child,
+            address,
+            zenoh,
+            cluster,
+        }
     }
 
     /// Waits up to 10 s for the process to end; its exit status.
@@ -108,7 +126,8 @@ impl Drop for Service {
 /// each time_query_us, logged poses unchanged before handover, an NPC that
 /// stops behind an ego standing in its lane (and drives past without it),
 /// the same answers for the same seed and inputs, sessions isolated, every
-/// error its status code; shut_down stops the service.
+/// error its status code, each answer's actors on the bus for a Zenoh
+/// subscriber; shut_down stops the service.
 #[test]
 fn a_generated_python_client_runs_the_usage_example_and_the_error_cases() {
     let Some(python) = python() else {
@@ -137,6 +156,7 @@ fn a_generated_python_client_runs_the_usage_example_and_the_error_cases() {
         .arg(crate_dir().join("tests/client.py"))
         .arg(&stubs)
         .arg(&service.address)
+        .args([&service.zenoh, &service.cluster])
         .output()
         .unwrap();
     assert!(

@@ -11,8 +11,8 @@ use trafficmesh_model::TrafficSpawnConfig;
 use crate::wire::{
     AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, EgoPose,
     EventBatch, Heartbeat, LightOverride, LightState, LockstepTick, ProposalBatch, ProposalResult,
-    RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest, ServiceStatus, SpawnAnswer,
-    SpawnBatch, TickReport, VehicleBatch,
+    RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest, ServiceStatus, SessionObjects,
+    SpawnAnswer, SpawnBatch, TickReport, VehicleBatch,
 };
 
 /// How a key is used.
@@ -153,6 +153,8 @@ pub const BLOCKED_STOP: Call<BlockedStopQuery, BlockedStopAnswer> =
     Call::new("crosswalks/blocked_stop");
 pub const LOCKSTEP_STEP: Call<LockstepTick, TickReport> = Call::new("lockstep/step/{member}");
 pub const LOCKSTEP_AGENTS: Call<LockstepTick, AgentBatch> = Call::new("lockstep/agents/{source}");
+pub const TRAFFIC_SESSION: Topic<SessionObjects> =
+    Topic::new("traffic/{session}/objects", Kind::Put);
 pub const STATUS: Topic<ServiceStatus> = Topic::new("status/{service}", Kind::PutAndQuery);
 pub const ALIVE: Topic<Empty> = Topic::new("alive/{service}", Kind::Liveliness);
 
@@ -184,6 +186,7 @@ pub fn all() -> Vec<Declared> {
         BLOCKED_STOP.declared(),
         LOCKSTEP_STEP.declared(),
         LOCKSTEP_AGENTS.declared(),
+        TRAFFIC_SESSION.declared(),
         STATUS.declared(),
         ALIVE.declared(),
     ]

@@ -408,6 +408,67 @@ impl Settings for AdminSettings {
     }
 }
 
+/// The traffic service (gRPC gateway): `[traffic_service]`.
+#[derive(clap::Args, Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TrafficServiceSettings {
+    /// Whether `trafficmesh up` starts the traffic service (cluster.toml only).
+    #[arg(skip = true)]
+    pub enabled: bool,
+    /// gRPC address to listen on (`--listen` is the Zenoh one).
+    #[arg(id = "bind", long = "bind", value_name = "ADDR", default_value_t = TrafficServiceSettings::default().listen)]
+    pub listen: SocketAddr,
+    /// More scenes for map_id besides the run's map: a directory of maps
+    /// (each named by its file stem) or a TOML list (`[[scene]] id, map, offset`).
+    #[arg(long)]
+    pub scenes: Option<PathBuf>,
+    /// History an actor needs before the model takes it over, microseconds.
+    #[arg(long, default_value_t = TrafficServiceSettings::default().min_history_us)]
+    pub min_history_us: u64,
+    /// How far past time_query_us each answer forecasts, microseconds (0:
+    /// only the pose at time_query_us).
+    #[arg(long, default_value_t = TrafficServiceSettings::default().forecast_horizon_us)]
+    pub forecast_horizon_us: u64,
+    /// Time between forecast poses, microseconds.
+    #[arg(long, default_value_t = TrafficServiceSettings::default().forecast_step_us)]
+    pub forecast_step_us: u64,
+}
+
+impl Default for TrafficServiceSettings {
+    fn default() -> Self {
+        TrafficServiceSettings {
+            enabled: true,
+            listen: SocketAddr::from(([127, 0, 0, 1], 50054)),
+            scenes: None,
+            min_history_us: 1_000_000,
+            forecast_horizon_us: 2_000_000,
+            forecast_step_us: 100_000,
+        }
+    }
+}
+
+impl Settings for TrafficServiceSettings {
+    fn problems(&self) -> Vec<(&'static str, String)> {
+        collect([(
+            "forecast_step_us",
+            (self.forecast_step_us == 0).then(|| "must be positive".to_string()),
+        )])
+    }
+    fn flags(&self) -> Vec<String> {
+        let mut flags = [
+            flag("bind", self.listen),
+            flag("min_history_us", self.min_history_us),
+            flag("forecast_horizon_us", self.forecast_horizon_us),
+            flag("forecast_step_us", self.forecast_step_us),
+        ]
+        .concat();
+        if let Some(s) = &self.scenes {
+            flags.extend(flag("scenes", s.display()));
+        }
+        flags
+    }
+}
+
 /// AWSIM's NPCVehicleConfig as `sim` and the stepper take it (the
 /// inspector's fields), and as `[vehicle]` in cluster.toml. Defaults are the
 /// reference's, from [`NpcVehicleConfig::default`].

@@ -27,6 +27,8 @@ pub struct ClusterSpec {
     pub admin_token: Option<String>,
     /// `up`'s first and largest restart delay for a service that died.
     pub restart_backoff_ms: u64,
+    /// The traffic service (gRPC) on this port; None: not started.
+    pub traffic_service_port: Option<u16>,
 }
 
 impl ClusterSpec {
@@ -42,6 +44,7 @@ impl ClusterSpec {
             pedestrians: false,
             admin_token: None,
             restart_backoff_ms: 250,
+            traffic_service_port: None,
         }
     }
 }
@@ -181,6 +184,8 @@ initial_backoff_ms = {backoff}
 max_backoff_ms = {backoff}
 [admin]
 {admin}
+[traffic_service]
+{traffic}
 "#,
         name = spec.name,
         map = spec.map.display(),
@@ -190,5 +195,9 @@ max_backoff_ms = {backoff}
         pedestrians = spec.pedestrians,
         backoff = spec.restart_backoff_ms,
         dir = dir.display(),
+        traffic = match spec.traffic_service_port {
+            Some(port) => format!("enabled = true\nlisten = \"127.0.0.1:{port}\""),
+            None => "enabled = false".into(),
+        },
     )
 }

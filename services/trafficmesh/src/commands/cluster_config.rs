@@ -7,7 +7,7 @@ use serde::Deserialize;
 use trafficmesh_service::VehicleArgs;
 use trafficmesh_service::settings::{
     AdminSettings, CrosswalksSettings, LightsSettings, PedestriansSettings, Settings,
-    SpawnerSettings, StepperSettings, problems_in,
+    SpawnerSettings, StepperSettings, TrafficServiceSettings, problems_in,
 };
 
 #[derive(Debug, Deserialize)]
@@ -43,6 +43,8 @@ pub struct ClusterConfig {
     pub pedestrians: PedestriansSettings,
     #[serde(default)]
     pub admin: AdminSettings,
+    #[serde(default)]
+    pub traffic_service: TrafficServiceSettings,
     #[serde(default)]
     pub restart: RestartSection,
 }
@@ -120,6 +122,7 @@ impl ClusterConfig {
             problems_in("crosswalks", &self.crosswalks),
             problems_in("pedestrians", &self.pedestrians),
             problems_in("admin", &self.admin),
+            problems_in("traffic_service", &self.traffic_service),
             problems_in("vehicle", &self.vehicle),
         ]
         .concat()
@@ -233,6 +236,13 @@ impl ClusterConfig {
                     .iter()
                     .map(|t| ("TRAFFICMESH_ADMIN_TOKEN".to_string(), t.clone()))
                     .collect(),
+            });
+        }
+        if self.traffic_service.enabled {
+            launches.push(Launch {
+                name: "traffic-grpc",
+                flags: member(self.traffic_service.flags()),
+                env: Vec::new(),
             });
         }
         launches

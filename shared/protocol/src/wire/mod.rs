@@ -8,6 +8,7 @@
 mod agents;
 mod commands;
 mod lockstep;
+mod sessions;
 mod states;
 mod telemetry;
 pub mod vehicle_codec;
@@ -18,6 +19,7 @@ pub use commands::{
     RestartRequest, SpawnAnswer, SpawnBatch, SpawnOrder, SpawnVerdict,
 };
 pub use lockstep::{LockstepTick, TickReport};
+pub use sessions::{SessionObject, SessionObjects};
 pub use states::{
     CrosswalkOccupancy, EgoPose, Heartbeat, LightOverride, LightState, ServiceStatus,
 };

@@ -100,6 +100,8 @@ struct Tracked {
 pub struct ActorAnswer {
     pub id: String,
     pub poses: Vec<PoseAt>,
+    /// Who moves it: `log`, `model`, `client` or `static`.
+    pub driver: &'static str,
 }
 
 pub struct TrafficSession {
@@ -447,9 +449,16 @@ impl TrafficSession {
         };
         let a = &mut self.actors[k];
         a.pose = poses.first().copied();
+        let driver = match a.control {
+            Control::Log => "log",
+            Control::Npc { .. } | Control::Free(_) => "model",
+            Control::Client => "client",
+            Control::Parked(_) => "static",
+        };
         ActorAnswer {
             id: a.actor.id.clone(),
             poses,
+            driver,
         }
     }
 }
