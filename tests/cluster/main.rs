@@ -530,25 +530,29 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
 
 /// `trafficmesh up` starts the traffic service on the cluster's map: a
 /// runtime's gRPC client finds the map among the scenes and drives a session,
-/// and a Zenoh subscriber on the cluster's bus sees its actors.
+/// and a Zenoh subscriber on the cluster's bus and the admin's live map see
+/// its actors.
 #[test]
 fn up_starts_the_traffic_service_on_the_clusters_map() {
     let Some(python) = python_with(
-        "grpc_tools, zenoh",
-        "grpcio-tools==1.85.1 eclipse-zenoh==1.10.2",
+        "grpc_tools, zenoh, websocket",
+        "grpcio-tools==1.85.1 eclipse-zenoh==1.10.2 websocket-client==1.9.2",
     ) else {
         return;
     };
     let port = free_port();
     let cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
         traffic_service_port: Some(port),
+        admin_token: Some(TOKEN.into()),
         ..Cluster::spec("grpc", &four_way())
     });
+    cluster.wait_for_admin();
     let out = std::process::Command::new(python)
         .arg(repo().join("tests/cluster/traffic_service.py"))
         .arg(repo().join("services/traffic-grpc/proto"))
         .arg(format!("127.0.0.1:{port}"))
         .args([&cluster.endpoint, &cluster.name])
+        .arg(cluster.admin.as_ref().unwrap())
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);

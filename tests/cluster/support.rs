@@ -142,7 +142,7 @@ impl Cluster {
     }
 
     /// Waits (up to a minute) until the admin answers and sees the core services alive.
-    fn wait_for_admin(&self) {
+    pub fn wait_for_admin(&self) {
         let deadline = Instant::now() + Duration::from_secs(60);
         loop {
             if let Ok(mut r) =

@@ -1,9 +1,10 @@
 """The traffic service as `trafficmesh up` starts it: a runtime's gRPC
 client (stubs generated here with grpcio-tools from the project's .proto
 files) finds the cluster's map among the scenes and drives a session, and a
-Zenoh subscriber on the cluster's bus sees the session's actors. Prints OK.
+Zenoh subscriber on the cluster's bus sees the session's actors, and so
+does the admin's live map (its websocket). Prints OK.
 
-usage: traffic_service.py PROTO_DIR GRPC_ADDRESS ZENOH_ENDPOINT CLUSTER
+usage: traffic_service.py PROTO_DIR GRPC_ADDRESS ZENOH_ENDPOINT CLUSTER ADMIN_URL
 """
 
 import json
@@ -13,9 +14,10 @@ import sys
 import tempfile
 import time
 
+import websocket
 import zenoh
 
-proto, address, endpoint, cluster = sys.argv[1:5]
+proto, address, endpoint, cluster, admin = sys.argv[1:6]
 stubs = tempfile.mkdtemp()
 subprocess.run(
     [sys.executable, "-m", "grpc_tools.protoc", "-I", proto, f"--python_out={stubs}",
@@ -72,6 +74,19 @@ while not any(v["time_us"] == 3_000_000 for v in seen) and time.monotonic() < de
     time.sleep(0.05)
 last = [v for v in seen if v["time_us"] == 3_000_000]
 assert last and last[0]["session"] == "s1" and last[0]["objects"][0]["driver"] == "model", seen[-3:]
+
+# The live map's feed carries the session's actors while it is live.
+ws = websocket.create_connection(admin.replace("http://", "ws://") + "/api/v1/live?hz=10", timeout=5)
+drawn = None
+deadline = time.monotonic() + 5
+while drawn is None and time.monotonic() < deadline:
+    m = ws.recv()
+    if isinstance(m, str):
+        m = json.loads(m)
+        if m.get("type") == "sessions":
+            drawn = next((s for s in m["sessions"] if s["session"] == "s1"), None)
+ws.close()
+assert drawn and [o["id"] for o in drawn["objects"]] == ["car"], drawn
 stub.close_session(traffic.TrafficSessionCloseRequest(session_uuid="s1"))
 watcher.undeclare()
 bus.close()

@@ -56,7 +56,7 @@ pub async fn socket(
 async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
     let mut interval = tokio::time::interval(period);
     interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-    let (mut sent_batch, mut sent_states) = (0u64, None::<u64>);
+    let (mut sent_batch, mut sent_states, mut sent_sessions) = (0u64, None::<u64>, 0u64);
     loop {
         tokio::select! {
             _ = interval.tick() => {}
@@ -65,8 +65,14 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
                 Some(Ok(_)) => continue,
             },
         }
-        let (batch, states) = {
+        let (batch, states, sessions) = {
             let v = app.view.read();
+            // Sent again while any is live, so that one that falls silent goes away.
+            let live = v.live_sessions();
+            let sessions = (v.sessions_version != sent_sessions || !live.is_empty()).then(|| {
+                let text = serde_json::json!({"type": "sessions", "sessions": live});
+                (v.sessions_version, text.to_string())
+            });
             let batch = v
                 .batch
                 .clone()
@@ -86,8 +92,14 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
                 let text = serde_json::json!({"type": "states", "lights": lights, "crosswalks": crosswalks});
                 (v.states_version, text.to_string())
             });
-            (batch, states)
+            (batch, states, sessions)
         };
+        if let Some((version, text)) = sessions {
+            if socket.send(Message::Text(text.into())).await.is_err() {
+                return;
+            }
+            sent_sessions = version;
+        }
         if let Some((version, text)) = states {
             if socket.send(Message::Text(text.into())).await.is_err() {
                 return;

@@ -10,7 +10,9 @@ use trafficmesh_protocol::topics;
 
 use anyhow::Result;
 use trafficmesh_bus::Bus;
-use trafficmesh_protocol::wire::{Clock, CrosswalkOccupancy, LightState, ServiceStatus};
+use trafficmesh_protocol::wire::{
+    Clock, CrosswalkOccupancy, LightState, ServiceStatus, SessionObjects,
+};
 use zenoh::bytes::ZBytes;
 use zenoh::sample::SampleKind;
 
@@ -29,6 +31,24 @@ pub struct ViewState {
     pub alive: BTreeSet<String>,
     /// Bumped on every light or crosswalk change, so the live map sends them only then.
     pub states_version: u64,
+    /// The traffic service's sessions: each one's newest actors and when they came.
+    pub sessions: BTreeMap<String, (SessionObjects, Instant)>,
+    /// Bumped on every session answer, so the live map sends them only then.
+    pub sessions_version: u64,
+}
+
+/// A session silent for this long is no longer drawn, seconds.
+pub const SESSION_SILENCE: f64 = 5.0;
+
+impl ViewState {
+    /// The sessions heard from within [`SESSION_SILENCE`].
+    pub fn live_sessions(&self) -> Vec<&SessionObjects> {
+        self.sessions
+            .values()
+            .filter(|(_, at)| at.elapsed().as_secs_f64() < SESSION_SILENCE)
+            .map(|(s, _)| s)
+            .collect()
+    }
 }
 
 #[derive(Default)]
@@ -102,6 +122,16 @@ impl ClusterView {
                 let mut v = view.write();
                 v.occupancy.insert(o.area.clone(), o);
                 v.states_version += 1;
+            }
+        });
+
+        let sessions = bus.subscribe_to(&topics::TRAFFIC_SESSION).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Some((name, s)) = sessions.next(&b).await {
+                let mut v = view.write();
+                v.sessions.insert(name, (s, Instant::now()));
+                v.sessions_version += 1;
             }
         });
 

@@ -18,13 +18,16 @@ const statusBox = document.getElementById("status");
 const vehicleBox = document.getElementById("vehicle");
 
 // Exposed for tests and for the curious: what the page has seen and drawn.
-const live = { frames: 0, batches: 0, drawnVehicles: 0, tick: null, errors: [] };
+const live = { frames: 0, batches: 0, drawnVehicles: 0, drawnActors: 0, tick: null, errors: [] };
 window.trafficmesh = live;
 
 let map = null;
 let lanesPath = null, junctionPath = null;
 let batch = null; // { tick, time, count, view: DataView, record }
 let states = { lights: {}, crosswalks: {} };
+// The traffic service's sessions: each one's actors as box centres (docs/traffic-service.md).
+let sessions = [];
+const DRIVER_COLORS = { log: "#8b949e", model: "#d29922", client: "#58a6ff", static: "#6e7681" };
 const view = { scale: 1, x: 0, y: 0 }; // screen = (world - (x, y)) * scale, y flipped
 let dirty = true;
 // The lanes, drawn once per view (pan, zoom, resize) instead of every frame.
@@ -252,6 +255,23 @@ function draw() {
     }
   }
   live.drawnVehicles = drawn;
+  let actors = 0;
+  worldTransform(ctx);
+  for (const s of sessions) {
+    for (const o of s.objects) {
+      const c = Math.cos(o.yaw), sn = Math.sin(o.yaw), hl = o.length / 2, hw = o.width / 2;
+      ctx.fillStyle = DRIVER_COLORS[o.driver] || "#ffffff";
+      ctx.beginPath();
+      ctx.moveTo(o.x + c * hl - sn * hw, o.y + sn * hl + c * hw);
+      ctx.lineTo(o.x + c * hl + sn * hw, o.y + sn * hl - c * hw);
+      ctx.lineTo(o.x - c * hl + sn * hw, o.y - sn * hl - c * hw);
+      ctx.lineTo(o.x - c * hl - sn * hw, o.y - sn * hl + c * hw);
+      ctx.closePath();
+      ctx.fill();
+      actors++;
+    }
+  }
+  live.drawnActors = actors;
   live.frames++;
 }
 
@@ -308,6 +328,7 @@ function connect() {
     if (typeof e.data === "string") {
       const m = JSON.parse(e.data);
       if (m.type === "states") states = m;
+      if (m.type === "sessions") sessions = m.sessions;
     } else {
       batch = readBatch(e.data);
       live.batches++;

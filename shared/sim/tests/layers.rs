@@ -39,6 +39,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         ],
     ),
     ("world", &["world"]),
+    ("front ends", &["session"]),
     ("tools", &["populate", "motion_check"]),
 ];
 
