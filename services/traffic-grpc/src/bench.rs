@@ -204,7 +204,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
         .with_nodelay(Some(true));
     let address = incoming.local_addr()?.to_string();
     let (halt, halted) = tokio::sync::oneshot::channel::<()>();
-    let server = tokio::spawn(crate::serve(gateway, incoming, async {
+    let server = tokio::spawn(crate::serve(gateway, incoming, None, async {
         let _ = halted.await;
     }));
     let mut rows = Vec::new();

@@ -23,10 +23,35 @@ pub mod proto {
 /// HTTP/2 flow-control window per stream, bytes.
 pub const WINDOW: u32 = 4 << 20;
 
-/// Serves `gateway` with health and reflection on `incoming` until `stop`.
+/// TLS for the gRPC server: PEM files read at start.
+pub struct Tls {
+    pub cert: std::path::PathBuf,
+    pub key: std::path::PathBuf,
+    /// Clients must present a certificate of this CA (mutual TLS).
+    pub client_ca: Option<std::path::PathBuf>,
+}
+
+impl Tls {
+    fn config(&self) -> Result<tonic::transport::ServerTlsConfig> {
+        let read = |p: &std::path::Path| {
+            std::fs::read(p).with_context(|| format!("reading the TLS file {}", p.display()))
+        };
+        let mut config = tonic::transport::ServerTlsConfig::new().identity(
+            tonic::transport::Identity::from_pem(read(&self.cert)?, read(&self.key)?),
+        );
+        if let Some(ca) = &self.client_ca {
+            config = config.client_ca_root(tonic::transport::Certificate::from_pem(read(ca)?));
+        }
+        Ok(config)
+    }
+}
+
+/// Serves `gateway` with health and reflection on `incoming` until `stop`,
+/// over TLS when `tls` is given.
 pub async fn serve(
     gateway: service::Gateway,
     incoming: tonic::transport::server::TcpIncoming,
+    tls: Option<&Tls>,
     stop: impl std::future::Future<Output = ()>,
 ) -> Result<()> {
     use proto::traffic::traffic_service_server::TrafficServiceServer;
@@ -46,7 +71,13 @@ pub async fn serve(
     let reflection_v1alpha = reflection()
         .build_v1alpha()
         .context("building the reflection service")?;
-    tonic::transport::Server::builder()
+    let mut server = tonic::transport::Server::builder();
+    if let Some(tls) = tls {
+        server = server
+            .tls_config(tls.config()?)
+            .context("the TLS certificate or key")?;
+    }
+    server
         // An answer of 200 actors with their forecasts is ~200 kB: windows
         // that hold it whole save a flow-control round trip per call.
         .initial_stream_window_size(WINDOW)

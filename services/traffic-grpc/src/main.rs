@@ -13,7 +13,7 @@ use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_service::check_flags;
 use trafficmesh_service::settings::TrafficServiceSettings;
 use trafficmesh_sim::session::SessionConfig;
-use trafficmesh_traffic_grpc::{catalogue, serve, service};
+use trafficmesh_traffic_grpc::{Tls, catalogue, serve, service};
 
 /// Serves `traffic.TrafficService` (start_session, simulate, close_session,
 /// get_metadata, get_available_scenes, shut_down), the standard gRPC health
@@ -88,7 +88,16 @@ async fn run(args: Args) -> Result<()> {
             _ = stopped.wait_for(|s| *s) => {}
         }
     };
-    serve(gateway, incoming, signals).await?;
+    let tls = s
+        .tls_cert
+        .clone()
+        .zip(s.tls_key.clone())
+        .map(|(cert, key)| Tls {
+            cert,
+            key,
+            client_ca: s.tls_client_ca.clone(),
+        });
+    serve(gateway, incoming, tls.as_ref(), signals).await?;
     tracing::info!("traffic service stopped");
     Ok(())
 }

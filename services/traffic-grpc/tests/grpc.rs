@@ -46,6 +46,28 @@ fn free_port() -> u16 {
         .port()
 }
 
+/// Python stubs of the project's .proto files, generated with grpcio-tools.
+fn generate_stubs(python: &str, dir: &Path) -> PathBuf {
+    let stubs = dir.join("stubs");
+    std::fs::create_dir(&stubs).unwrap();
+    let proto = crate_dir().join("proto");
+    let generated = Command::new(python)
+        .args(["-m", "grpc_tools.protoc", "-I"])
+        .arg(&proto)
+        .arg(format!("--python_out={}", stubs.display()))
+        .arg(format!("--grpc_python_out={}", stubs.display()))
+        .arg(proto.join("common.proto"))
+        .arg(proto.join("traffic.proto"))
+        .output()
+        .unwrap();
+    assert!(
+        generated.status.success(),
+        "grpc_tools.protoc: {}",
+        String::from_utf8_lossy(&generated.stderr)
+    );
+    stubs
+}
+
 /// The service on a free port with the four-way map as scene `four_way`,
 /// on a Zenoh bus of its own (a cluster name and endpoint of this test's).
 struct Service {
@@ -57,6 +79,10 @@ struct Service {
 
 impl Service {
     fn start(dir: &Path) -> Service {
+        Self::start_with(dir, &[])
+    }
+
+    fn start_with(dir: &Path, extra: &[String]) -> Service {
         let map = crate_dir().join("../../configs/maps/four_way.map.json");
         let scenes = dir.join("scenes.toml");
         std::fs::write(
@@ -81,6 +107,7 @@ impl Service {
             ])
             .arg("--scenes")
             .arg(&scenes)
+            .args(extra)
             .stdout(Stdio::null())
             .stderr(Stdio::inherit())
             .spawn()
@@ -134,23 +161,7 @@ fn a_generated_python_client_runs_the_usage_example_and_the_error_cases() {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
-    let stubs = dir.path().join("stubs");
-    std::fs::create_dir(&stubs).unwrap();
-    let proto = crate_dir().join("proto");
-    let generated = Command::new(&python)
-        .args(["-m", "grpc_tools.protoc", "-I"])
-        .arg(&proto)
-        .arg(format!("--python_out={}", stubs.display()))
-        .arg(format!("--grpc_python_out={}", stubs.display()))
-        .arg(proto.join("common.proto"))
-        .arg(proto.join("traffic.proto"))
-        .output()
-        .unwrap();
-    assert!(
-        generated.status.success(),
-        "grpc_tools.protoc: {}",
-        String::from_utf8_lossy(&generated.stderr)
-    );
+    let stubs = generate_stubs(&python, dir.path());
     let mut service = Service::start(dir.path());
     let out = Command::new(&python)
         .arg(crate_dir().join("tests/client.py"))
@@ -178,4 +189,143 @@ fn sigterm_stops_the_service_gracefully() {
     // SAFETY: kill(2) on our own child's pid.
     unsafe { libc::kill(service.child.id() as i32, libc::SIGTERM) };
     assert!(service.wait().success());
+}
+
+/// A CA, a server certificate for 127.0.0.1 and a client certificate, made
+/// with openssl as a deployment's script would.
+fn certificates(dir: &Path) -> PathBuf {
+    let certs = dir.join("certs");
+    std::fs::create_dir(&certs).unwrap();
+    std::fs::write(
+        certs.join("server.ext"),
+        "subjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n",
+    )
+    .unwrap();
+    std::fs::write(certs.join("client.ext"), "extendedKeyUsage=clientAuth\n").unwrap();
+    let steps: [&[&str]; 5] = [
+        &[
+            "req",
+            "-x509",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            "ca.key",
+            "-out",
+            "ca.pem",
+            "-days",
+            "2",
+            "-subj",
+            "/CN=trafficmesh test CA",
+        ],
+        &[
+            "req",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            "server.key",
+            "-out",
+            "server.csr",
+            "-subj",
+            "/CN=localhost",
+        ],
+        &[
+            "x509",
+            "-req",
+            "-in",
+            "server.csr",
+            "-CA",
+            "ca.pem",
+            "-CAkey",
+            "ca.key",
+            "-CAcreateserial",
+            "-out",
+            "server.pem",
+            "-days",
+            "2",
+            "-extfile",
+            "server.ext",
+        ],
+        &[
+            "req",
+            "-newkey",
+            "rsa:2048",
+            "-nodes",
+            "-keyout",
+            "client.key",
+            "-out",
+            "client.csr",
+            "-subj",
+            "/CN=runtime",
+        ],
+        &[
+            "x509",
+            "-req",
+            "-in",
+            "client.csr",
+            "-CA",
+            "ca.pem",
+            "-CAkey",
+            "ca.key",
+            "-CAcreateserial",
+            "-out",
+            "client.pem",
+            "-days",
+            "2",
+            "-extfile",
+            "client.ext",
+        ],
+    ];
+    for args in steps {
+        let out = Command::new("openssl")
+            .args(args)
+            .current_dir(&certs)
+            .output()
+            .expect("openssl (apt-get install openssl)");
+        assert!(
+            out.status.success(),
+            "openssl {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    certs
+}
+
+/// With a certificate, key and client CA the service speaks only mutual
+/// TLS: a client with the deployment's certificate is served; one without a
+/// certificate, or without TLS, is refused.
+#[test]
+fn over_mutual_tls_only_clients_with_a_certificate_are_served() {
+    let Some(python) = python() else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let stubs = generate_stubs(&python, dir.path());
+    let certs = certificates(dir.path());
+    let file = |name: &str| certs.join(name).display().to_string();
+    let service = Service::start_with(
+        dir.path(),
+        &[
+            "--tls-cert".into(),
+            file("server.pem"),
+            "--tls-key".into(),
+            file("server.key"),
+            "--tls-client-ca".into(),
+            file("ca.pem"),
+        ],
+    );
+    let out = Command::new(&python)
+        .arg(crate_dir().join("tests/tls_client.py"))
+        .arg(&stubs)
+        .arg(&service.address)
+        .arg(&certs)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success() && String::from_utf8_lossy(&out.stdout).contains("OK"),
+        "tls_client.py:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
 }

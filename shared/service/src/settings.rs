@@ -432,6 +432,17 @@ pub struct TrafficServiceSettings {
     /// Time between forecast poses, microseconds.
     #[arg(long, default_value_t = TrafficServiceSettings::default().forecast_step_us)]
     pub forecast_step_us: u64,
+    /// TLS: the service's certificate chain (PEM); with `tls_key`, gRPC
+    /// runs over TLS only.
+    #[arg(long, requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// TLS: the service's private key (PEM).
+    #[arg(long, requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// TLS: the CA (PEM) a client's certificate must chain to; clients
+    /// without one are refused (mutual TLS).
+    #[arg(long, requires = "tls_cert")]
+    pub tls_client_ca: Option<PathBuf>,
 }
 
 impl Default for TrafficServiceSettings {
@@ -443,16 +454,31 @@ impl Default for TrafficServiceSettings {
             min_history_us: 1_000_000,
             forecast_horizon_us: 2_000_000,
             forecast_step_us: 100_000,
+            tls_cert: None,
+            tls_key: None,
+            tls_client_ca: None,
         }
     }
 }
 
 impl Settings for TrafficServiceSettings {
     fn problems(&self) -> Vec<(&'static str, String)> {
-        collect([(
-            "forecast_step_us",
-            (self.forecast_step_us == 0).then(|| "must be positive".to_string()),
-        )])
+        collect([
+            (
+                "forecast_step_us",
+                (self.forecast_step_us == 0).then(|| "must be positive".to_string()),
+            ),
+            (
+                "tls_key",
+                (self.tls_cert.is_some() != self.tls_key.is_some())
+                    .then(|| "and tls_cert go together".to_string()),
+            ),
+            (
+                "tls_client_ca",
+                (self.tls_client_ca.is_some() && self.tls_cert.is_none())
+                    .then(|| "needs tls_cert and tls_key".to_string()),
+            ),
+        ])
     }
     fn flags(&self) -> Vec<String> {
         let mut flags = [
@@ -462,8 +488,15 @@ impl Settings for TrafficServiceSettings {
             flag("forecast_step_us", self.forecast_step_us),
         ]
         .concat();
-        if let Some(s) = &self.scenes {
-            flags.extend(flag("scenes", s.display()));
+        for (name, path) in [
+            ("scenes", &self.scenes),
+            ("tls_cert", &self.tls_cert),
+            ("tls_key", &self.tls_key),
+            ("tls_client_ca", &self.tls_client_ca),
+        ] {
+            if let Some(p) = path {
+                flags.extend(flag(name, p.display()));
+            }
         }
         flags
     }
