@@ -32,12 +32,16 @@ pub struct BenchOptions {
     pub sessions: Vec<usize>,
     /// Simulated seconds per session.
     pub seconds: u64,
+    /// The service's forecast per answer (its default: 2 s).
+    pub forecast_horizon_us: u64,
 }
 
 #[derive(Serialize)]
 pub struct BenchRow {
     pub sessions: usize,
     pub objects: usize,
+    /// Poses per actor in each answer: the queried one and the forecast.
+    pub poses_per_object: u64,
     pub calls: usize,
     pub p50_ms: f64,
     pub p99_ms: f64,
@@ -194,7 +198,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
     let gateway = crate::service::Gateway::new(
         scenes,
         SessionConfig {
-            forecast_horizon_us: 0,
+            forecast_horizon_us: o.forecast_horizon_us,
             ..SessionConfig::default()
         },
         stop,
@@ -228,6 +232,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
         rows.push(BenchRow {
             sessions: n,
             objects: o.objects,
+            poses_per_object: 1 + o.forecast_horizon_us / SessionConfig::default().forecast_step_us,
             calls: all.len(),
             p50_ms: quantile(&all, 0.5),
             p99_ms: quantile(&all, 0.99),

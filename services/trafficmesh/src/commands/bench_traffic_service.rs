@@ -17,6 +17,10 @@ pub struct TrafficServiceArgs {
     /// Simulated seconds per session (10 calls a second, paced in real time).
     #[arg(long, default_value_t = 10)]
     seconds: u64,
+    /// The forecast each answer carries, microseconds (the service's
+    /// default: 2 s at 10 Hz, 21 poses per actor).
+    #[arg(long, default_value_t = 2_000_000)]
+    forecast_horizon_us: u64,
     /// Print one JSON object `{"rows": [...]}` instead of a table.
     #[arg(long)]
     json: bool,
@@ -30,16 +34,17 @@ pub fn run(a: TrafficServiceArgs) -> Result<()> {
         objects: a.objects,
         sessions: a.sessions,
         seconds: a.seconds,
+        forecast_horizon_us: a.forecast_horizon_us,
     }))?;
     if a.json {
         println!("{}", serde_json::json!({ "rows": rows }));
         return Ok(());
     }
-    println!("sessions  objects  calls   p50 ms   p99 ms   max ms");
+    println!("sessions  objects  poses  calls   p50 ms   p99 ms   max ms");
     for r in rows {
         println!(
-            "{:>8} {:>8} {:>6} {:>8.2} {:>8.2} {:>8.2}",
-            r.sessions, r.objects, r.calls, r.p50_ms, r.p99_ms, r.max_ms
+            "{:>8} {:>8} {:>6} {:>6} {:>8.2} {:>8.2} {:>8.2}",
+            r.sessions, r.objects, r.poses_per_object, r.calls, r.p50_ms, r.p99_ms, r.max_ms
         );
     }
     Ok(())
