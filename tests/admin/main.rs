@@ -812,7 +812,7 @@ fn chromium() -> Option<String> {
 fn the_live_map_shows_moving_vehicles_in_headless_chromium() {
     let (Some(browser), Some(python)) = (
         chromium(),
-        python_with("websocket, PIL", "websocket-client pillow"),
+        trafficmesh_testkit::python_with("websocket, PIL", "websocket-client pillow"),
     ) else {
         return;
     };

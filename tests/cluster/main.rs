@@ -501,7 +501,7 @@ fn bad_payloads_are_counted_and_dropped_and_nothing_crashes() {
 
 #[test]
 fn python_clients_subscribe_and_act_as_an_external_simulator() {
-    let Some(python) = python_with("zenoh", "eclipse-zenoh==1.10.2") else {
+    let Some(python) = trafficmesh_testkit::python_with("zenoh", "eclipse-zenoh==1.10.2") else {
         return;
     };
     // Spawner without its own map simulators' competition on the test lane is
@@ -534,7 +534,7 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
 /// its actors.
 #[test]
 fn up_starts_the_traffic_service_on_the_clusters_map() {
-    let Some(python) = python_with(
+    let Some(python) = trafficmesh_testkit::python_with(
         "grpc_tools, zenoh, websocket",
         "grpcio-tools==1.85.1 eclipse-zenoh==1.10.2 websocket-client==1.9.2",
     ) else {
@@ -610,7 +610,7 @@ fn late_joiners_see_every_light_and_crosswalk_at_once() {
         "four crosswalks: {line}"
     );
 
-    let Some(python) = python_with("zenoh", "eclipse-zenoh==1.10.2") else {
+    let Some(python) = trafficmesh_testkit::python_with("zenoh", "eclipse-zenoh==1.10.2") else {
         return;
     };
     let out = std::process::Command::new(python)

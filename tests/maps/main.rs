@@ -102,7 +102,7 @@ fn cross_net_imports_as_sumolib_reads_it() {
     let Some(net) = shared_map("cross.net.xml") else {
         return;
     };
-    let Some(python) = support::python_with("sumolib", "sumolib==1.28.0") else {
+    let Some(python) = trafficmesh_testkit::python_with("sumolib", "sumolib==1.28.0") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -124,7 +124,7 @@ fn grid_with_crossings() -> PathBuf {
 
 #[test]
 fn grid_with_crossings_imports_as_sumolib_reads_it() {
-    let Some(python) = support::python_with("sumolib", "sumolib==1.28.0") else {
+    let Some(python) = trafficmesh_testkit::python_with("sumolib", "sumolib==1.28.0") else {
         return;
     };
     let net = grid_with_crossings();
@@ -327,7 +327,7 @@ fn broken_sumo_files_are_rejected_naming_line_and_element() {
 
 fn check_lanelet2(file: &str, ten_minutes_without_overlaps: bool) {
     let Some(osm) = shared_map(file) else { return };
-    let Some(python) = support::python_with("xml", "(the standard library)") else {
+    let Some(python) = trafficmesh_testkit::python_with("xml", "(the standard library)") else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();
@@ -858,7 +858,7 @@ fn a_sumocfg_drives_the_cluster() {
 /// `trafficmesh bench vs-sumo --json` with these arguments and the SUMO of
 /// the virtualenv: its report; None (skipped) where SUMO is not installed.
 fn vs_sumo(args: &[&std::ffi::OsStr]) -> Option<serde_json::Value> {
-    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
+    let python = trafficmesh_testkit::python_with("sumo", "eclipse-sumo==1.28.0")?;
     let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
         .args(["bench", "vs-sumo", "--json", "--sumo"])
         .arg(Path::new(&python).with_file_name("sumo"))
@@ -1130,7 +1130,7 @@ fn netconvert(
     edges: &str,
     options: &[&str],
 ) -> Option<PathBuf> {
-    let python = support::python_with("sumo", "eclipse-sumo==1.28.0")?;
+    let python = trafficmesh_testkit::python_with("sumo", "eclipse-sumo==1.28.0")?;
     let (nod, edg) = (
         dir.join(format!("{name}.nod.xml")),
         dir.join(format!("{name}.edg.xml")),

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use anyhow::{Context, Result};
 use clap::Parser;
-use trafficmesh_bus::{Bus, BusArgs, Role};
+use trafficmesh_bus::{Bus, BusArgs, Role, runtime};
 use trafficmesh_service::check_flags;
 use trafficmesh_service::settings::TrafficServiceSettings;
 use trafficmesh_sim::session::SessionConfig;
@@ -18,39 +18,29 @@ use trafficmesh_traffic_grpc::{Tls, catalogue, serve, service};
 /// Serves `traffic.TrafficService` (start_session, simulate, close_session,
 /// get_metadata, get_available_scenes, shut_down), the standard gRPC health
 /// service and server reflection, so `grpcurl` lists and calls it. Scenes for
-/// map_id: `--map` (named by its file stem) and the `--scenes` catalogue; an
+/// map_id: `--map` (named by its file name up to its first dot) and the `--scenes` catalogue; an
 /// unknown map_id runs map-less.
 #[derive(Parser, Debug)]
 #[command(version, about)]
 struct Args {
     #[command(flatten)]
     bus: BusArgs,
-    /// A map that sessions may choose by its file stem (`trafficmesh up`
-    /// passes the cluster's).
+    /// A map that sessions may choose by its name (the file name up to its
+    /// first dot; `trafficmesh up` passes the cluster's).
     #[arg(long)]
     map: Option<PathBuf>,
-    /// A SUMO scenario whose network sessions may choose by its file stem.
+    /// A SUMO scenario whose network sessions may choose by its name.
     #[arg(long, conflicts_with = "map")]
     sumocfg: Option<PathBuf>,
     #[command(flatten)]
     settings: TrafficServiceSettings,
 }
 
-/// The exit code of a start refused for its configuration (as every service).
-const CONFIG_ERROR: i32 = 2;
-
-fn main() {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
-        .init();
-    let args = Args::parse();
-    let runtime = tokio::runtime::Runtime::new().expect("a tokio runtime");
-    if let Err(e) = runtime.block_on(run(args)) {
-        tracing::error!("{e:#}");
-        std::process::exit(CONFIG_ERROR);
-    }
+fn main() -> std::process::ExitCode {
+    runtime::main_with(|| {
+        let args = Args::parse();
+        runtime::tokio_runtime(2)?.block_on(run(args))
+    })
 }
 
 async fn run(args: Args) -> Result<()> {
@@ -61,7 +51,7 @@ async fn run(args: Args) -> Result<()> {
         None => Default::default(),
     };
     if let Some(path) = args.map.as_ref().or(args.sumocfg.as_ref()) {
-        catalogue::add_file(&mut scenes, path)?;
+        catalogue::add(&mut scenes, path, glam::DVec3::ZERO)?;
     }
     tracing::info!(scenes = ?scenes.keys().collect::<Vec<_>>(), "scenes loaded");
     let bus = Bus::open_service(&args.bus, Role::Member, "traffic-grpc")
@@ -79,12 +69,10 @@ async fn run(args: Args) -> Result<()> {
         .with_context(|| format!("binding {}", s.listen))?
         .with_nodelay(Some(true));
     tracing::info!(address = %s.listen, "traffic service listening");
+    // A signal or the shut_down call.
     let signals = async move {
-        let mut term = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
-            .expect("a SIGTERM handler");
         tokio::select! {
-            _ = tokio::signal::ctrl_c() => tracing::info!("SIGINT: stopping"),
-            _ = term.recv() => tracing::info!("SIGTERM: stopping"),
+            _ = runtime::shutdown_signal() => {}
             _ = stopped.wait_for(|s| *s) => {}
         }
     };

@@ -31,8 +31,6 @@ struct Session {
     /// Log frame + offset = map frame.
     offset: DVec3,
     map_id: String,
-    /// Each actor's box size, in the request's order.
-    sizes: Vec<DVec3>,
 }
 
 pub struct Gateway {
@@ -127,8 +125,7 @@ fn view_of(id: &str, s: &Session, time_us: u64, answers: &[ActorAnswer]) -> Sess
         time_us,
         objects: answers
             .iter()
-            .zip(&s.sizes)
-            .filter_map(|(a, size)| {
+            .filter_map(|a| {
                 let p = a.poses.first()?;
                 Some(SessionObject {
                     id: a.id.clone(),
@@ -136,9 +133,9 @@ fn view_of(id: &str, s: &Session, time_us: u64, answers: &[ActorAnswer]) -> Sess
                     y: p.position.y,
                     z: p.position.z,
                     yaw: yaw_of(p.rotation),
-                    length: size.x,
-                    width: size.y,
-                    height: size.z,
+                    length: a.size.x,
+                    width: a.size.y,
+                    height: a.size.z,
                     driver: a.driver.to_string(),
                 })
             })
@@ -169,14 +166,6 @@ impl TrafficService for Gateway {
             );
         }
         let offset = scene.map_or(DVec3::ZERO, |s| s.offset);
-        let sizes: Vec<DVec3> = r
-            .logged_object_trajectories
-            .iter()
-            .map(|o| {
-                let a = o.aabb.unwrap_or_default();
-                DVec3::new(a.size_x as f64, a.size_y as f64, a.size_z as f64)
-            })
-            .collect();
         let mut actors = Vec::with_capacity(r.logged_object_trajectories.len());
         for o in &r.logged_object_trajectories {
             let log = poses_of(&o.trajectory, offset);
@@ -216,7 +205,6 @@ impl TrafficService for Gateway {
                 core,
                 offset,
                 map_id: r.map_id.clone(),
-                sizes,
             })),
         );
         Ok(Response::new(SessionRequestStatus {}))

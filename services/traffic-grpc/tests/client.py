@@ -252,4 +252,4 @@ assert code == grpc.StatusCode.NOT_FOUND, code
 stub.shut_down(common.Empty())
 watcher.undeclare()
 bus.close()
-print("ok")
+print("OK")

@@ -1,7 +1,7 @@
 //! The traffic service as a runtime uses it: the binary on a free port, a
 //! Python client generated with grpcio-tools from the project's .proto files.
 
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
@@ -10,40 +10,27 @@ fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// A Python (TRAFFICMESH_PYTHON, else python3) with grpcio-tools; None, with
-/// a notice, unless TRAFFICMESH_REQUIRE_PYTHON=1 (CI) makes it a failure.
+/// A Python with the gRPC tools, health and reflection clients, and Zenoh.
 fn python() -> Option<String> {
-    let candidates = std::env::var("TRAFFICMESH_PYTHON")
-        .into_iter()
-        .chain(["python3".to_string()]);
-    for p in candidates {
-        let ok = Command::new(&p)
-            .args([
-                "-c",
-                "import grpc, grpc_tools, grpc_health, grpc_reflection",
-            ])
-            .output()
-            .is_ok_and(|o| o.status.success());
-        if ok {
-            return Some(p);
-        }
-    }
-    assert!(
-        !std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1"),
-        "TRAFFICMESH_REQUIRE_PYTHON=1 but no python can import grpc_tools (set TRAFFICMESH_PYTHON)"
-    );
-    eprintln!(
-        "NOTICE: skipped: no python with grpcio-tools, grpcio-health-checking and grpcio-reflection (see .ci/run)"
-    );
-    None
+    trafficmesh_testkit::python_with(
+        "grpc, grpc_tools, grpc_health, grpc_reflection, zenoh",
+        "grpcio-tools grpcio-health-checking grpcio-reflection eclipse-zenoh (see .ci/run)",
+    )
 }
 
 fn free_port() -> u16 {
-    TcpListener::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+    trafficmesh_bus::free_loopback_port().expect("a free loopback port")
+}
+
+/// Runs a client script; it must succeed and print OK.
+fn assert_script_ok(script: &mut Command) {
+    let out = script.output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success() && stdout.contains("OK"),
+        "{script:?}:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// Python stubs of the project's .proto files, generated with grpcio-tools.
@@ -163,18 +150,12 @@ fn a_generated_python_client_runs_the_usage_example_and_the_error_cases() {
     let dir = tempfile::tempdir().unwrap();
     let stubs = generate_stubs(&python, dir.path());
     let mut service = Service::start(dir.path());
-    let out = Command::new(&python)
-        .arg(crate_dir().join("tests/client.py"))
-        .arg(&stubs)
-        .arg(&service.address)
-        .args([&service.zenoh, &service.cluster])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success() && String::from_utf8_lossy(&out.stdout).contains("ok"),
-        "client.py:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
+    assert_script_ok(
+        Command::new(&python)
+            .arg(crate_dir().join("tests/client.py"))
+            .arg(&stubs)
+            .arg(&service.address)
+            .args([&service.zenoh, &service.cluster]),
     );
     assert!(
         service.wait().success(),
@@ -315,17 +296,11 @@ fn over_mutual_tls_only_clients_with_a_certificate_are_served() {
             file("ca.pem"),
         ],
     );
-    let out = Command::new(&python)
-        .arg(crate_dir().join("tests/tls_client.py"))
-        .arg(&stubs)
-        .arg(&service.address)
-        .arg(&certs)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success() && String::from_utf8_lossy(&out.stdout).contains("OK"),
-        "tls_client.py:\n{}\n{}",
-        String::from_utf8_lossy(&out.stdout),
-        String::from_utf8_lossy(&out.stderr)
+    assert_script_ok(
+        Command::new(&python)
+            .arg(crate_dir().join("tests/tls_client.py"))
+            .arg(&stubs)
+            .arg(&service.address)
+            .arg(&certs),
     );
 }

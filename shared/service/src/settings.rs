@@ -419,7 +419,7 @@ pub struct TrafficServiceSettings {
     #[arg(id = "bind", long = "bind", value_name = "ADDR", default_value_t = TrafficServiceSettings::default().listen)]
     pub listen: SocketAddr,
     /// More scenes for map_id besides the run's map: a directory of maps
-    /// (each named by its file stem) or a TOML list (`[[scene]] id, map, offset`).
+    /// (each named by its file name up to its first dot) or a TOML list (`[[scene]] id, map, offset`).
     #[arg(long)]
     pub scenes: Option<PathBuf>,
     /// History an actor needs before the model takes it over, microseconds.

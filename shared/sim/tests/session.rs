@@ -10,8 +10,10 @@ use trafficmesh_sim::session::{Actor, PoseAt, SessionConfig, SessionError, Traff
 
 const STEP: u64 = 100_000;
 
-fn road() -> LaneNetwork {
-    LaneNetwork::build(&signalised_road()).unwrap()
+/// A session on the signalised road, seed 1, the default settings.
+fn on_road(actors: Vec<Actor>, handover_us: u64) -> TrafficSession {
+    let road = LaneNetwork::build(&signalised_road()).unwrap();
+    TrafficSession::new(Some(road), actors, 1, handover_us, SessionConfig::default()).unwrap()
 }
 
 fn pose(t_us: u64, x: f64) -> PoseAt {
@@ -48,14 +50,10 @@ fn drivers(s: &mut TrafficSession, until_us: u64, from_us: u64) -> Vec<(u64, Vec
 fn the_model_takes_an_actor_over_at_handover_once_it_has_its_history() {
     // One actor logged from 0 (history enough at 1 s, handover at 2 s), one
     // that appears at 2.5 s (history enough at 3.5 s).
-    let mut s = TrafficSession::new(
-        Some(road()),
+    let mut s = on_road(
         vec![car("early", 0, 20.0), car("late", 2_500_000, 60.0)],
-        1,
         2_000_000,
-        SessionConfig::default(),
-    )
-    .unwrap();
+    );
     for (t, d) in drivers(&mut s, 5_000_000, STEP) {
         // The answer at t is after the tick that starts at t - 20 ms at the latest.
         let early = if t > 2_000_000 { "model" } else { "log" };
@@ -68,14 +66,7 @@ fn the_model_takes_an_actor_over_at_handover_once_it_has_its_history() {
 fn logged_poses_come_back_unchanged_until_handover_and_a_handed_over_car_keeps_its_lane() {
     let actor = car("a", 0, 20.0);
     let log = actor.log.clone();
-    let mut s = TrafficSession::new(
-        Some(road()),
-        vec![actor],
-        1,
-        600_000,
-        SessionConfig::default(),
-    )
-    .unwrap();
+    let mut s = on_road(vec![actor], 600_000);
     for t in (STEP..=1_000_000).step_by(STEP as usize) {
         let a = &s.simulate(t, Vec::new()).unwrap()[0];
         assert_eq!(a.poses[0], log[(t / STEP) as usize], "at {t} us");
@@ -99,14 +90,7 @@ fn logged_poses_come_back_unchanged_until_handover_and_a_handed_over_car_keeps_i
 
 #[test]
 fn a_car_handed_over_stops_behind_a_body_the_client_moves() {
-    let mut s = TrafficSession::new(
-        Some(road()),
-        vec![car("a", 0, 20.0)],
-        1,
-        600_000,
-        SessionConfig::default(),
-    )
-    .unwrap();
+    let mut s = on_road(vec![car("a", 0, 20.0)], 600_000);
     let mut x = 0.0;
     for t in (STEP..=12_000_000).step_by(STEP as usize) {
         let ego = vec![("ego".to_string(), vec![pose(t, 90.0)])];
@@ -118,14 +102,7 @@ fn a_car_handed_over_stops_behind_a_body_the_client_moves() {
 
 #[test]
 fn bad_requests_are_refused_and_leave_the_session_as_it_was() {
-    let mut s = TrafficSession::new(
-        Some(road()),
-        vec![car("a", 0, 20.0)],
-        1,
-        600_000,
-        SessionConfig::default(),
-    )
-    .unwrap();
+    let mut s = on_road(vec![car("a", 0, 20.0)], 600_000);
     s.simulate(500_000, Vec::new()).unwrap();
     assert_eq!(
         s.simulate(400_000, Vec::new()),

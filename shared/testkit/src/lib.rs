@@ -201,3 +201,28 @@ max_backoff_ms = {backoff}
         },
     )
 }
+
+/// A Python (TRAFFICMESH_PYTHON, else python3) that can `import <module>`.
+/// None, with a notice, when there is none, unless TRAFFICMESH_REQUIRE_PYTHON=1
+/// (CI), which turns the absence into a failure.
+pub fn python_with(module: &str, pip_hint: &str) -> Option<String> {
+    let candidates = std::env::var("TRAFFICMESH_PYTHON")
+        .into_iter()
+        .chain(["python3".to_string()]);
+    for p in candidates {
+        let ok = std::process::Command::new(&p)
+            .args(["-c", &format!("import {module}")])
+            .output()
+            .is_ok_and(|o| o.status.success());
+        if ok {
+            return Some(p);
+        }
+    }
+    if std::env::var("TRAFFICMESH_REQUIRE_PYTHON").is_ok_and(|v| v == "1") {
+        panic!(
+            "TRAFFICMESH_REQUIRE_PYTHON=1 but no python can import {module} (set TRAFFICMESH_PYTHON)"
+        );
+    }
+    eprintln!("NOTICE: skipped: no python with {module} (pip install {pip_hint})");
+    None
+}

@@ -3,6 +3,8 @@
 
 use glam::DVec2;
 
+use crate::ego::Ego;
+
 use super::log::PoseAt;
 
 /// Braking for a body in the way, m/s² (a firm stop, as the NPCs' sudden one).
@@ -20,11 +22,20 @@ pub struct Obstacle {
     pub width: f64,
 }
 
+impl From<&Ego> for Obstacle {
+    fn from(e: &Ego) -> Self {
+        Obstacle {
+            center: e.center(),
+            length: e.length,
+            width: e.width,
+        }
+    }
+}
+
 #[derive(Clone, Debug)]
 pub struct FreeBody {
-    /// Centre and rotation when handed over; the position moves on.
+    /// Centre and rotation; the centre moves on at its heading.
     pose: PoseAt,
-    center: DVec2,
     speed: f64,
     length: f64,
     width: f64,
@@ -33,7 +44,6 @@ pub struct FreeBody {
 impl FreeBody {
     pub fn new(pose: PoseAt, speed: f64, length: f64, width: f64) -> Self {
         FreeBody {
-            center: pose.position.truncate(),
             pose,
             speed,
             length,
@@ -59,20 +69,20 @@ impl FreeBody {
             };
             self.speed = (self.speed - wanted.min(2.0 * BRAKE) * dt).max(0.0);
         }
-        self.center += self.heading() * (self.speed * dt);
-        self.pose.position = self.center.extend(self.pose.position.z);
+        self.pose.position += (self.heading() * (self.speed * dt)).extend(0.0);
     }
 
     /// Metres from its front to the nearest body whose box reaches into its
     /// path ahead.
     fn gap_ahead(&self, others: &[Obstacle]) -> f64 {
         let forward = self.heading();
+        let center = self.pose.position.truncate();
         let left = forward.perp();
         others
             .iter()
-            .filter(|o| o.center.distance(self.center) > 0.01)
+            .filter(|o| o.center.distance(center) > 0.01)
             .filter_map(|o| {
-                let d = o.center - self.center;
+                let d = o.center - center;
                 let along = d.dot(forward);
                 let reach = 0.5 * (o.length.max(o.width));
                 let side = d.dot(left).abs() - reach;

@@ -102,6 +102,8 @@ pub struct ActorAnswer {
     pub poses: Vec<PoseAt>,
     /// Who moves it: `log`, `model`, `client` or `static`.
     pub driver: &'static str,
+    /// Its box: length, width, height.
+    pub size: DVec3,
 }
 
 pub struct TrafficSession {
@@ -216,10 +218,8 @@ impl TrafficSession {
             tick += self.config.tick_us;
         }
         // The world's clock runs in whole ticks; the rest is extrapolated.
-        let ticks = (tick - start) / self.config.tick_us;
         self.now_us = Some(t_us);
         let lag = (t_us - tick) as f64 * 1e-6;
-        debug_assert!(self.world.as_ref().is_none_or(|w| w.ticks() >= ticks));
         Ok((0..self.actors.len())
             .map(|k| self.answer(k, t_us, lag))
             .collect())
@@ -254,24 +254,19 @@ impl TrafficSession {
         }
         let bodies = self.foreign_bodies(t_us);
         let dt = self.config.tick_us as f64 * 1e-6;
+        let mut obstacles: Vec<free::Obstacle> = bodies.iter().map(free::Obstacle::from).collect();
         if let Some(w) = &mut self.world {
-            w.set_foreign_bodies(bodies.iter().map(|b| b.0).collect());
+            w.set_foreign_bodies(bodies);
             w.step();
-        }
-        let npcs: Vec<free::Obstacle> = self
-            .world
-            .iter()
-            .flat_map(|w| w.vehicles())
-            .map(|v| free::Obstacle {
+            obstacles.extend(w.vehicles().iter().map(|v| free::Obstacle {
                 center: v.front - v.heading * (v.length * 0.5),
                 length: v.length,
                 width: v.width,
-            })
-            .chain(bodies.iter().map(|b| b.1))
-            .collect();
+            }));
+        }
         for a in &mut self.actors {
             if let Control::Free(body) = &mut a.control {
-                body.advance(dt, &npcs);
+                body.advance(dt, &obstacles);
             }
         }
     }
@@ -304,8 +299,10 @@ impl TrafficSession {
             .zip(boxes.as_ref())
             .and_then(|(w, boxes)| {
                 let (lane, s) = placement::match_lane(w.network(), boxes, front, yaw)?;
-                let kind = w.add_vehicle_kind(trafficmesh_model::VehicleKind {
-                    name: format!("actor {}", a.actor.id),
+                // A kind of its own size, its origin at the box centre.
+                let kind = format!("actor {}", a.actor.id);
+                w.add_vehicle_kind(trafficmesh_model::VehicleKind {
+                    name: kind.clone(),
                     front: length * 0.5,
                     length,
                     width,
@@ -313,10 +310,9 @@ impl TrafficSession {
                     idm: None,
                     class: None,
                 });
-                let name = w.network().lane(lane).name.clone();
-                let kind_name = w.network().kinds[kind].name.clone();
-                let s = s.clamp(0.0, w.network().lane(lane).length());
-                w.place_vehicle(&kind_name, &name, s, speed).ok()
+                let lane = w.network().lane(lane);
+                let (name, s) = (lane.name.clone(), s.clamp(0.0, lane.length()));
+                w.place_vehicle(&kind, &name, s, speed).ok()
             });
         let lift = self
             .world
@@ -332,48 +328,33 @@ impl TrafficSession {
 
     /// The bodies the world does not drive, at `t_us`: the client's, the
     /// actors still on their logs, parked and free ones.
-    fn foreign_bodies(&self, t_us: u64) -> Vec<(Ego, free::Obstacle)> {
-        let mut out = Vec::new();
-        let mut push = |pose: PoseAt, size: DVec3| {
-            let yaw = pose.yaw();
-            let center = pose.position.truncate();
-            let rear = center - DVec2::from_angle(yaw) * (size.x * 0.5);
-            out.push((
-                Ego {
-                    pose: crate::vehicle::Pose {
-                        x: rear.x,
-                        y: rear.y,
-                        z: pose.position.z,
-                        yaw,
-                    },
-                    length: size.x,
-                    width: size.y,
-                    front_offset: size.x,
-                },
-                free::Obstacle {
-                    center,
-                    length: size.x,
-                    width: size.y,
-                },
-            ));
+    fn foreign_bodies(&self, t_us: u64) -> Vec<Ego> {
+        // As the ego: its pose at the box centre, half its length to the front.
+        let body = |pose: PoseAt, size: DVec3| Ego {
+            pose: crate::vehicle::Pose {
+                x: pose.position.x,
+                y: pose.position.y,
+                z: pose.position.z,
+                yaw: pose.yaw(),
+            },
+            length: size.x,
+            width: size.y,
+            front_offset: size.x * 0.5,
         };
-        for (_, log, size) in &self.clients {
-            if let Some(p) = log.at_or_held(t_us) {
-                push(p, *size);
-            }
-        }
-        for a in &self.actors {
+        let clients = self
+            .clients
+            .iter()
+            .filter_map(|(_, log, size)| Some(body(log.at_or_held(t_us)?, *size)));
+        let actors = self.actors.iter().filter_map(|a| {
             let pose = match &a.control {
                 Control::Log | Control::Client => a.log.at(t_us),
                 Control::Parked(p) => Some(*p),
                 Control::Free(body) => Some(body.pose(t_us)),
                 Control::Npc { .. } => None,
-            };
-            if let Some(p) = pose {
-                push(p, a.actor.size);
-            }
-        }
-        out
+            }?;
+            Some(body(pose, a.actor.size))
+        });
+        clients.chain(actors).collect()
     }
 
     /// Actor `k`'s pose at `t_us` and its forecast. `lag` is how far `t_us`
@@ -459,6 +440,7 @@ impl TrafficSession {
             id: a.actor.id.clone(),
             poses,
             driver,
+            size: a.actor.size,
         }
     }
 }
