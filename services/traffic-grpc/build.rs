@@ -24,6 +24,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("cargo:rustc-env=TRAFFICMESH_GIT_HASH={hash}");
     println!("cargo:rerun-if-changed=../../.git/HEAD");
     println!("cargo:rerun-if-changed=../../.git/refs/heads");
-    tonic_prost_build::configure().compile_fds(descriptors)?;
+    tonic_prost_build::configure()
+        .codec_path("crate::codec::WholeMessageCodec")
+        .extern_path(".common.Trajectory", "crate::trajectory::Trajectory")
+        .compile_fds(descriptors)?;
     Ok(())
 }

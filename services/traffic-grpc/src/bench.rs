@@ -5,6 +5,7 @@
 //! the sessions' calls spread over the step.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
@@ -120,12 +121,15 @@ async fn session(
     objects: Vec<ObjectTrajectory>,
     seconds: u64,
     phase: Duration,
+    started: Arc<tokio::sync::Barrier>,
 ) -> Result<Vec<Duration>> {
     let actors = objects.len();
     let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))?
         .tcp_nodelay(true)
         .initial_stream_window_size(crate::WINDOW)
         .initial_connection_window_size(4 * crate::WINDOW)
+        // What a grpcio client (the runtime's) offers: 4 MB windows and frames.
+        .max_frame_size(crate::WINDOW)
         .connect()
         .await?;
     let mut client = TrafficServiceClient::new(channel);
@@ -138,6 +142,8 @@ async fn session(
             handover_time_us: 600_000,
         })
         .await?;
+    // Steady state: every session's calls begin once all have started.
+    started.wait().await;
     tokio::time::sleep(phase).await;
     let mut tick = tokio::time::interval(Duration::from_micros(STEP_US));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -213,6 +219,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
     }));
     let mut rows = Vec::new();
     for (run, &n) in o.sessions.iter().enumerate() {
+        let started = Arc::new(tokio::sync::Barrier::new(n));
         let runs: Vec<_> = (0..n)
             .map(|k| {
                 tokio::spawn(session(
@@ -221,6 +228,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
                     objects.clone(),
                     o.seconds,
                     Duration::from_micros(STEP_US * k as u64 / n as u64),
+                    started.clone(),
                 ))
             })
             .collect();

@@ -4,7 +4,9 @@
 
 pub mod bench;
 pub mod catalogue;
+pub mod codec;
 pub mod service;
+pub mod trajectory;
 
 use anyhow::{Context, Result};
 
@@ -12,6 +14,7 @@ use anyhow::{Context, Result};
 pub mod proto {
     pub mod common {
         tonic::include_proto!("common");
+        pub use crate::trajectory::Trajectory;
     }
     pub mod traffic {
         tonic::include_proto!("traffic");
@@ -79,9 +82,12 @@ pub async fn serve(
     }
     server
         // An answer of 200 actors with their forecasts is ~200 kB: windows
-        // that hold it whole save a flow-control round trip per call.
+        // that hold it whole save a flow-control round trip per call, and
+        // frames that large (grpcio's clients take 4 MB frames) a pass
+        // through the HTTP/2 layers per 16 kB.
         .initial_stream_window_size(WINDOW)
         .initial_connection_window_size(4 * WINDOW)
+        .max_frame_size(WINDOW)
         .add_service(health_service)
         .add_service(reflection_v1)
         .add_service(reflection_v1alpha)

@@ -277,6 +277,11 @@ fn exit_blocked_by(snap: &Snapshot, v: &Vehicle, k: usize) -> Option<u32> {
 
 /// Along-path distance to the ego's box where it enters our corridor (our width).
 fn ego_distance(net: &LaneNetwork, v: &Vehicle, ego: &Ego, range: f64) -> f64 {
+    // Far bodies first, before the box's centre costs a sine and a cosine.
+    let far = range + ego.reach() + v.width;
+    if ego.position().distance_squared(v.front) > far * far {
+        return f64::INFINITY;
+    }
     if ego.center().distance(v.front) > range + ego.radius() + v.width {
         return f64::INFINITY;
     }

@@ -9,6 +9,8 @@ mod free;
 mod log;
 mod placement;
 
+use std::collections::HashMap;
+
 use glam::{DQuat, DVec2, DVec3};
 
 pub use log::{PoseAt, PoseLog, yaw_of};
@@ -220,8 +222,15 @@ impl TrafficSession {
         // The world's clock runs in whole ticks; the rest is extrapolated.
         self.now_us = Some(t_us);
         let lag = (t_us - tick) as f64 * 1e-6;
+        // Where each of the world's vehicles is in its list: looking each
+        // NPC up by id would read the whole list once per actor.
+        let slots: HashMap<VehicleId, usize> = self
+            .world
+            .iter()
+            .flat_map(|w| w.vehicles().iter().enumerate().map(|(i, v)| (v.id, i)))
+            .collect();
         Ok((0..self.actors.len())
-            .map(|k| self.answer(k, t_us, lag))
+            .map(|k| self.answer(k, t_us, lag, &slots))
             .collect())
     }
 
@@ -358,8 +367,15 @@ impl TrafficSession {
     }
 
     /// Actor `k`'s pose at `t_us` and its forecast. `lag` is how far `t_us`
-    /// lies past the world's last tick, seconds.
-    fn answer(&mut self, k: usize, t_us: u64, lag: f64) -> ActorAnswer {
+    /// lies past the world's last tick, seconds; `slots` where each vehicle
+    /// is in the world's list.
+    fn answer(
+        &mut self,
+        k: usize,
+        t_us: u64,
+        lag: f64,
+        slots: &HashMap<VehicleId, usize>,
+    ) -> ActorAnswer {
         let step = self.config.forecast_step_us.max(1);
         let later: Vec<u64> = (1..=self.config.forecast_horizon_us / step)
             .map(|i| t_us + i * step)
@@ -393,25 +409,21 @@ impl TrafficSession {
                 .collect(),
             Control::Npc { vehicle, lift } => {
                 let world = self.world.as_ref().expect("NPCs live in a world");
-                match world.vehicle(*vehicle) {
-                    Some(v) => std::iter::once(t_us)
-                        .chain(later.iter().copied())
-                        .map(|t| {
-                            let ahead = v.speed * (lag + (t - t_us) as f64 * 1e-6);
-                            let (c, yaw) = placement::along_path(
-                                world.network(),
-                                &v.path,
-                                v.s,
-                                ahead,
-                                v.length,
-                            );
-                            PoseAt {
+                match slots.get(vehicle).map(|&i| &world.vehicles()[i]) {
+                    Some(v) => {
+                        let times = std::iter::once(t_us).chain(later.iter().copied());
+                        let aheads = times
+                            .clone()
+                            .map(|t| v.speed * (lag + (t - t_us) as f64 * 1e-6));
+                        placement::along_path(world.network(), &v.path, v.s, v.length, aheads)
+                            .zip(times)
+                            .map(|((c, heading), t)| PoseAt {
                                 t_us: t,
                                 position: c + DVec3::Z * *lift,
-                                rotation: DQuat::from_rotation_z(yaw),
-                            }
-                        })
-                        .collect(),
+                                rotation: log::rotation_towards(heading),
+                            })
+                            .collect()
+                    }
                     None => {
                         // It drove off the map: it stays where it was last seen.
                         let last = a.pose.unwrap_or(PoseAt {

@@ -71,31 +71,43 @@ pub fn match_lane(
     best.map(|(_, _, lane, s)| (lane, s))
 }
 
-/// The centre (with the lane's height) and heading of a body of `length`
-/// whose front bumper is `ahead` metres further along `path` than arc
-/// length `s` of its first lane; past the path's end, straight on.
-pub fn along_path(
-    net: &LaneNetwork,
-    path: &[LaneId],
+/// The centres (with the lane's height) and unit headings of a body of
+/// `length` whose front bumper is each of `aheads` (non-decreasing) metres
+/// further along `path` than arc length `s` of its first lane; past the
+/// path's end, straight on. One walk along the path serves them all.
+pub fn along_path<'a>(
+    net: &'a LaneNetwork,
+    path: &'a [LaneId],
     s: f64,
-    ahead: f64,
     length: f64,
-) -> (DVec3, f64) {
-    let mut at = s + ahead - length * 0.5;
-    for (k, &lane) in path.iter().enumerate() {
-        let line = &net.lane(lane).line;
-        if at <= line.length() || k + 1 == path.len() {
-            let (p, z) = line.point_at(at);
-            let d = line.point_at((at + 0.5).min(line.length())).0
-                - line.point_at((at - 0.5).max(0.0)).0;
-            let yaw = if d.length() > 0.0 {
-                d.y.atan2(d.x)
-            } else {
-                0.0
-            };
-            return (p.extend(z), yaw);
+    aheads: impl IntoIterator<Item = f64> + 'a,
+) -> impl Iterator<Item = (DVec3, DVec2)> + 'a {
+    // The lane reached so far and the path's arc length where it starts.
+    let mut k = 0;
+    let mut start = 0.0;
+    aheads.into_iter().map(move |ahead| {
+        if path.is_empty() {
+            return (DVec3::ZERO, DVec2::X);
         }
-        at -= line.length();
-    }
-    (DVec3::ZERO, 0.0)
+        let mut at = s + ahead - length * 0.5 - start;
+        let mut line = &net.lane(path[k]).line;
+        while at > line.length() && k + 1 < path.len() {
+            at -= line.length();
+            start += line.length();
+            k += 1;
+            line = &net.lane(path[k]).line;
+        }
+        let (p, z) = line.point_at(at);
+        // The heading over a metre, so that a kink between two vertices
+        // turns the body gradually; within one segment that is the
+        // segment's own direction.
+        let i = line.segment_at(at);
+        let (a, b) = (&line.vertices[i], &line.vertices[i + 1]);
+        let d = if a.cum <= at - 0.5 && at + 0.5 <= b.cum {
+            b.point - a.point
+        } else {
+            line.point_at((at + 0.5).min(line.length())).0 - line.point_at((at - 0.5).max(0.0)).0
+        };
+        (p.extend(z), d.try_normalize().unwrap_or(DVec2::X))
+    })
 }

@@ -1,0 +1,192 @@
+//! `common.Trajectory` with an encoder of its own. An answer is mostly
+//! trajectories (200 actors with 21 poses each); prost's derived encoder
+//! works out the length of every nested pose again at each level above it,
+//! and writes each field through its own buffer call. Here a pose whose
+//! position and rotation are both present is written in one go, to the same
+//! bytes prost writes (fields at their default left out); anything else, and
+//! decoding, is prost's.
+
+use prost::bytes::{Buf, BufMut};
+use prost::encoding::{DecodeContext, WireType, message, skip_field};
+use prost::{DecodeError, Message};
+
+use crate::proto::common::PoseAtTime;
+
+/// `repeated PoseAtTime poses = 1;`
+#[derive(Clone, PartialEq, Debug, Default)]
+pub struct Trajectory {
+    pub poses: Vec<PoseAtTime>,
+}
+
+/// The most a whole pose takes as a field of a trajectory: its key and
+/// length, the pose's key and length, the position's (three fixed32 fields
+/// of five bytes), the rotation's (four), and the fixed64 timestamp. Every
+/// length fits one byte.
+const MAX_POSE: usize = 2 + 2 + (2 + 15) + (2 + 20) + 9;
+
+/// The fields of a whole pose: position x, y, z, then rotation w, x, y, z,
+/// and the time.
+fn fields(p: &PoseAtTime) -> Option<([f32; 3], [f32; 4], u64)> {
+    let pose = p.pose.as_ref()?;
+    let (v, q) = (pose.vec.as_ref()?, pose.quat.as_ref()?);
+    Some(([v.x, v.y, v.z], [q.w, q.x, q.y, q.z], p.timestamp_us))
+}
+
+/// Bytes of the fixed32 fields of `floats` that are not zero.
+fn floats_len(floats: &[f32]) -> usize {
+    5 * floats.iter().filter(|&&x| x != 0.0).count()
+}
+
+/// A whole pose's bytes as a field of a trajectory, in `out`; their count.
+fn write_whole(
+    position: [f32; 3],
+    rotation: [f32; 4],
+    t_us: u64,
+    out: &mut [u8; MAX_POSE],
+) -> usize {
+    let (v_len, q_len) = (floats_len(&position), floats_len(&rotation));
+    let pose_len = 2 + v_len + 2 + q_len;
+    let time_len = if t_us != 0 { 9 } else { 0 };
+    let mut n = 0;
+    let mut put = |bytes: &[u8]| {
+        out[n..n + bytes.len()].copy_from_slice(bytes);
+        n += bytes.len();
+    };
+    put(&[0x0A, (2 + pose_len + time_len) as u8, 0x0A, pose_len as u8]);
+    for (key, floats, len) in [(0x0A, &position[..], v_len), (0x12, &rotation[..], q_len)] {
+        put(&[key, len as u8]);
+        for (field, x) in (1u8..).zip(floats) {
+            if *x != 0.0 {
+                // Field `field`, wire type fixed32.
+                put(&[(field << 3) | 5]);
+                put(&x.to_le_bytes());
+            }
+        }
+    }
+    if t_us != 0 {
+        put(&[0x11]);
+        put(&t_us.to_le_bytes());
+    }
+    n
+}
+
+fn whole_len(position: &[f32; 3], rotation: &[f32; 4], t_us: u64) -> usize {
+    4 + 2 + floats_len(position) + 2 + floats_len(rotation) + if t_us != 0 { 9 } else { 0 }
+}
+
+impl Message for Trajectory {
+    fn encode_raw(&self, buf: &mut impl BufMut) {
+        let mut bytes = [0u8; MAX_POSE];
+        for p in &self.poses {
+            match fields(p) {
+                Some((position, rotation, t_us)) => {
+                    let n = write_whole(position, rotation, t_us, &mut bytes);
+                    buf.put_slice(&bytes[..n]);
+                }
+                None => message::encode(1, p, buf),
+            }
+        }
+    }
+
+    fn merge_field(
+        &mut self,
+        tag: u32,
+        wire_type: WireType,
+        buf: &mut impl Buf,
+        ctx: DecodeContext,
+    ) -> Result<(), DecodeError> {
+        match tag {
+            1 => message::merge_repeated(wire_type, &mut self.poses, buf, ctx),
+            _ => skip_field(wire_type, tag, buf, ctx),
+        }
+    }
+
+    fn encoded_len(&self) -> usize {
+        self.poses
+            .iter()
+            .map(|p| match fields(p) {
+                Some((position, rotation, t_us)) => whole_len(&position, &rotation, t_us),
+                None => message::encoded_len(1, p),
+            })
+            .sum()
+    }
+
+    fn clear(&mut self) {
+        self.poses.clear();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::proto::common::{Pose, Quat, Vec3};
+
+    /// The trajectory as prost derives it.
+    #[derive(Clone, PartialEq, prost::Message)]
+    struct Derived {
+        #[prost(message, repeated, tag = "1")]
+        poses: Vec<PoseAtTime>,
+    }
+
+    fn pose(t: u64, x: f32, w: f32) -> PoseAtTime {
+        PoseAtTime {
+            pose: Some(Pose {
+                vec: Some(Vec3 {
+                    x,
+                    y: -2.5,
+                    z: 0.75,
+                }),
+                quat: Some(Quat {
+                    w,
+                    x: 0.1,
+                    y: -0.2,
+                    z: 0.3,
+                }),
+            }),
+            timestamp_us: t,
+        }
+    }
+
+    #[test]
+    fn whole_poses_are_written_as_prost_writes_them() {
+        let poses = vec![
+            pose(1, 3.0, 0.9),
+            pose(u64::MAX, -1e30, 1.0),
+            pose(0, 0.0, 0.0),
+        ];
+        let ours = Trajectory {
+            poses: poses.clone(),
+        };
+        let bytes = ours.encode_to_vec();
+        assert_eq!(bytes, Derived { poses }.encode_to_vec());
+        assert_eq!(bytes.len(), ours.encoded_len());
+        assert_eq!(
+            ours.poses[..1]
+                .iter()
+                .map(|p| message::encoded_len(1, p))
+                .sum::<usize>(),
+            MAX_POSE
+        );
+    }
+
+    #[test]
+    fn partial_poses_are_prosts_and_come_back_as_they_were() {
+        let mut partial = pose(5, 1.0, 1.0);
+        partial.pose.as_mut().unwrap().quat = None;
+        let poses = vec![
+            pose(0, 0.0, 0.0),
+            partial,
+            PoseAtTime {
+                pose: None,
+                timestamp_us: 9,
+            },
+        ];
+        let ours = Trajectory {
+            poses: poses.clone(),
+        };
+        let bytes = ours.encode_to_vec();
+        assert_eq!(bytes.len(), ours.encoded_len());
+        assert_eq!(bytes, Derived { poses }.encode_to_vec());
+        assert_eq!(Trajectory::decode(bytes.as_slice()).unwrap(), ours);
+    }
+}
