@@ -17,7 +17,11 @@ fn trafficmesh(args: &[&str]) -> Output {
 }
 
 fn repo_file(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
+    // At run time: a binary built from another checkout that shares the
+    // build directory reads this checkout's files.
+    std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into())
         .join("../..")
         .join(rel)
 }

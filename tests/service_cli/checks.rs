@@ -6,10 +6,12 @@
 use std::process::Command;
 
 pub fn four_way() -> String {
-    format!(
-        "{}/../../configs/maps/four_way.map.json",
-        env!("CARGO_MANIFEST_DIR")
-    )
+    // At run time: a binary built from another checkout that shares the
+    // build directory reads this checkout's files.
+    let dir: std::path::PathBuf = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
+    format!("{}/../../configs/maps/four_way.map.json", dir.display())
 }
 
 /// Runs `bin` with `args`; it must exit with 2 and name `needle` on stderr.

@@ -231,11 +231,12 @@ mod tests {
     /// same crosswalk as one written with ours, and is written back with ours.
     #[test]
     fn crosswalks_in_the_documents_spelling_are_accepted() {
-        let ours = load_map(Path::new(concat!(
-            env!("CARGO_MANIFEST_DIR"),
-            "/../../configs/maps/four_way.map.json"
-        )))
-        .unwrap();
+        // The directory at run time: a binary built from another checkout
+        // that shares the build directory reads this checkout's files.
+        let dir: std::path::PathBuf = std::env::var_os("CARGO_MANIFEST_DIR")
+            .map(std::path::PathBuf::from)
+            .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
+        let ours = load_map(&dir.join("../../configs/maps/four_way.map.json")).unwrap();
         let mut doc: serde_json::Value = serde_json::to_value(&ours).unwrap();
         let crosswalk = &mut doc["crosswalks"][0];
         let c = crosswalk.as_object_mut().unwrap();

@@ -10,7 +10,12 @@ const DESCRIBED: &[&str] = &["Empty", "Text", "Json", "TrafficSpawnConfig"];
 
 /// (pattern, kind cell, payload cell) of each key in the table.
 fn documented() -> Vec<(String, String, String)> {
-    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../docs/cluster.md");
+    // The directory at run time: a binary built from another checkout that
+    // shares the build directory reads this checkout's files.
+    let path = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into())
+        .join("../../docs/cluster.md");
     let doc = std::fs::read_to_string(path).expect("docs/cluster.md");
     let mut rows = Vec::new();
     let mut in_table = false;
