@@ -47,6 +47,10 @@ pub struct BenchRow {
     pub p50_ms: f64,
     pub p99_ms: f64,
     pub max_ms: f64,
+    /// The service's own part of a call (the session's step and the answer
+    /// built, before encoding): p50 and p99.
+    pub step_p50_ms: f64,
+    pub step_p99_ms: f64,
 }
 
 /// The grid the sessions drive on: 6 x 6 junctions, 200 m blocks.
@@ -201,6 +205,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
         },
     );
     let (stop, _) = tokio::sync::watch::channel(false);
+    let step_times = Arc::new(std::sync::Mutex::new(Vec::new()));
     let gateway = crate::service::Gateway::new(
         scenes,
         SessionConfig {
@@ -208,7 +213,8 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
             ..SessionConfig::default()
         },
         stop,
-    );
+    )
+    .with_step_times(step_times.clone());
     let incoming = tonic::transport::server::TcpIncoming::bind("127.0.0.1:0".parse()?)
         .context("binding a loopback port")?
         .with_nodelay(Some(true));
@@ -237,6 +243,8 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
             all.extend(r.await??);
         }
         all.sort();
+        let mut steps = std::mem::take(&mut *step_times.lock().expect("never poisoned"));
+        steps.sort();
         rows.push(BenchRow {
             sessions: n,
             objects: o.objects,
@@ -245,6 +253,8 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
             p50_ms: quantile(&all, 0.5),
             p99_ms: quantile(&all, 0.99),
             max_ms: quantile(&all, 1.0),
+            step_p50_ms: quantile(&steps, 0.5),
+            step_p99_ms: quantile(&steps, 0.99),
         });
     }
     let _ = halt.send(());

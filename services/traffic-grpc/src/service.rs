@@ -40,6 +40,9 @@ pub struct Gateway {
     shutdown: tokio::sync::watch::Sender<bool>,
     /// Where each answer's actors are published for viewers.
     bus: Option<Arc<Bus>>,
+    /// Each simulate call's own time (the session's step and the answer
+    /// built), when measured.
+    step_times: Option<Arc<Mutex<Vec<std::time::Duration>>>>,
 }
 
 impl Gateway {
@@ -54,7 +57,14 @@ impl Gateway {
             sessions: Mutex::new(HashMap::new()),
             shutdown,
             bus: None,
+            step_times: None,
         }
+    }
+
+    /// Records each simulate call's own time in `times` (benchmarks).
+    pub fn with_step_times(mut self, times: Arc<Mutex<Vec<std::time::Duration>>>) -> Self {
+        self.step_times = Some(times);
+        self
     }
 
     /// Publishes every answer on `bus` under its session id.
@@ -236,6 +246,7 @@ impl TrafficService for Gateway {
         // On the network's worker itself: a session of a few hundred actors
         // steps in well under a millisecond, less than handing the call to
         // another thread and back costs on a small machine.
+        let started = std::time::Instant::now();
         let (answer, view) = {
             let mut s = session.lock().expect("a session lock is never poisoned");
             let offset = s.offset;
@@ -264,6 +275,12 @@ impl TrafficService for Gateway {
                 .map_err(invalid);
             (answer, view)
         };
+        if let Some(times) = &self.step_times {
+            times
+                .lock()
+                .expect("the timings are never poisoned")
+                .push(started.elapsed());
+        }
         if let (Some(bus), Some(view)) = (bus, view) {
             // Viewers never hold up the runtime's answer.
             tokio::spawn(async move {

@@ -40,11 +40,19 @@ pub fn run(a: TrafficServiceArgs) -> Result<()> {
         println!("{}", serde_json::json!({ "rows": rows }));
         return Ok(());
     }
-    println!("sessions  objects  poses  calls   p50 ms   p99 ms   max ms");
+    println!("sessions  objects  poses  calls   p50 ms   p99 ms   max ms   step p50   step p99");
     for r in rows {
         println!(
-            "{:>8} {:>8} {:>6} {:>6} {:>8.2} {:>8.2} {:>8.2}",
-            r.sessions, r.objects, r.poses_per_object, r.calls, r.p50_ms, r.p99_ms, r.max_ms
+            "{:>8} {:>8} {:>6} {:>6} {:>8.2} {:>8.2} {:>8.2} {:>10.2} {:>10.2}",
+            r.sessions,
+            r.objects,
+            r.poses_per_object,
+            r.calls,
+            r.p50_ms,
+            r.p99_ms,
+            r.max_ms,
+            r.step_p50_ms,
+            r.step_p99_ms
         );
     }
     Ok(())
