@@ -17,13 +17,7 @@ fn trafficmesh(args: &[&str]) -> Output {
 }
 
 fn repo_file(rel: &str) -> PathBuf {
-    // At run time: a binary built from another checkout that shares the
-    // build directory reads this checkout's files.
-    std::env::var_os("CARGO_MANIFEST_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into())
-        .join("../..")
-        .join(rel)
+    trafficmesh_testkit::repo_root().join(rel)
 }
 
 fn grid(dir: &Path, size: usize) -> PathBuf {

@@ -12,12 +12,7 @@ use trafficmesh_protocol::wire::{ServiceStatus, VehicleBatch};
 use trafficmesh_testkit::{ClusterSpec, LocalCluster};
 
 pub fn repo() -> PathBuf {
-    // At run time: a binary built from another checkout that shares the
-    // build directory reads this checkout's files.
-    std::env::var_os("CARGO_MANIFEST_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into())
-        .join("../..")
+    trafficmesh_testkit::repo_root()
 }
 
 pub fn four_way() -> PathBuf {

@@ -12,6 +12,7 @@ use anyhow::{Context, Result};
 use glam::DVec2;
 use serde::Serialize;
 use trafficmesh_maps::{GridOptions, grid_map};
+use trafficmesh_service::stats::quantile;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::session::SessionConfig;
 
@@ -181,11 +182,6 @@ async fn session(
     Ok(latencies)
 }
 
-fn quantile(sorted: &[Duration], q: f64) -> f64 {
-    let k = ((sorted.len() as f64 * q).ceil() as usize).clamp(1, sorted.len()) - 1;
-    sorted[k].as_secs_f64() * 1e3
-}
-
 /// Runs the bench: one row per session count.
 pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
     let net = grid()?;
@@ -238,23 +234,23 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
                 ))
             })
             .collect();
+        let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let mut all = Vec::new();
         for r in runs {
-            all.extend(r.await??);
+            all.extend(r.await??.into_iter().map(ms));
         }
-        all.sort();
-        let mut steps = std::mem::take(&mut *step_times.lock().expect("never poisoned"));
-        steps.sort();
+        let steps = std::mem::take(&mut *step_times.lock().expect("never poisoned"));
+        let mut steps: Vec<f64> = steps.into_iter().map(ms).collect();
         rows.push(BenchRow {
             sessions: n,
             objects: o.objects,
             poses_per_object: 1 + o.forecast_horizon_us / SessionConfig::default().forecast_step_us,
             calls: all.len(),
-            p50_ms: quantile(&all, 0.5),
-            p99_ms: quantile(&all, 0.99),
-            max_ms: quantile(&all, 1.0),
-            step_p50_ms: quantile(&steps, 0.5),
-            step_p99_ms: quantile(&steps, 0.99),
+            p50_ms: quantile(&mut all, 0.5),
+            p99_ms: quantile(&mut all, 0.99),
+            max_ms: quantile(&mut all, 1.0),
+            step_p50_ms: quantile(&mut steps, 0.5),
+            step_p99_ms: quantile(&mut steps, 0.99),
         });
     }
     let _ = halt.send(());

@@ -24,12 +24,72 @@ pub struct Trajectory {
 /// length fits one byte.
 const MAX_POSE: usize = 2 + 2 + (2 + 15) + (2 + 20) + 9;
 
-/// The fields of a whole pose: position x, y, z, then rotation w, x, y, z,
-/// and the time.
-fn fields(p: &PoseAtTime) -> Option<([f32; 3], [f32; 4], u64)> {
-    let pose = p.pose.as_ref()?;
-    let (v, q) = (pose.vec.as_ref()?, pose.quat.as_ref()?);
-    Some(([v.x, v.y, v.z], [q.w, q.x, q.y, q.z], p.timestamp_us))
+/// A pose with both a position and a rotation: its fields.
+struct WholePose {
+    /// x, y, z.
+    position: [f32; 3],
+    /// w, x, y, z.
+    rotation: [f32; 4],
+    t_us: u64,
+}
+
+impl WholePose {
+    fn of(p: &PoseAtTime) -> Option<Self> {
+        let pose = p.pose.as_ref()?;
+        let (v, q) = (pose.vec.as_ref()?, pose.quat.as_ref()?);
+        Some(WholePose {
+            position: [v.x, v.y, v.z],
+            rotation: [q.w, q.x, q.y, q.z],
+            t_us: p.timestamp_us,
+        })
+    }
+
+    /// The `Pose` message's bytes: position and rotation, each with its key
+    /// and length.
+    fn pose_len(&self) -> usize {
+        2 + floats_len(&self.position) + 2 + floats_len(&self.rotation)
+    }
+
+    /// The timestamp's bytes, none at its default.
+    fn time_len(&self) -> usize {
+        if self.t_us != 0 { 9 } else { 0 }
+    }
+
+    /// Its bytes as a field of a trajectory.
+    fn len(&self) -> usize {
+        2 + 2 + self.pose_len() + self.time_len()
+    }
+
+    /// Writes those bytes to `out`; returns their count.
+    fn write(&self, out: &mut [u8; MAX_POSE]) -> usize {
+        let pose_len = self.pose_len();
+        let mut n = 0;
+        let mut put = |bytes: &[u8]| {
+            out[n..n + bytes.len()].copy_from_slice(bytes);
+            n += bytes.len();
+        };
+        put(&[
+            0x0A,
+            (2 + pose_len + self.time_len()) as u8,
+            0x0A,
+            pose_len as u8,
+        ]);
+        for (key, floats) in [(0x0A, &self.position[..]), (0x12, &self.rotation[..])] {
+            put(&[key, floats_len(floats) as u8]);
+            for (field, x) in (1u8..).zip(floats) {
+                if *x != 0.0 {
+                    // Field `field`, wire type fixed32.
+                    put(&[(field << 3) | 5]);
+                    put(&x.to_le_bytes());
+                }
+            }
+        }
+        if self.t_us != 0 {
+            put(&[0x11]);
+            put(&self.t_us.to_le_bytes());
+        }
+        n
+    }
 }
 
 /// Bytes of the fixed32 fields of `floats` that are not zero.
@@ -37,50 +97,13 @@ fn floats_len(floats: &[f32]) -> usize {
     5 * floats.iter().filter(|&&x| x != 0.0).count()
 }
 
-/// A whole pose's bytes as a field of a trajectory, in `out`; their count.
-fn write_whole(
-    position: [f32; 3],
-    rotation: [f32; 4],
-    t_us: u64,
-    out: &mut [u8; MAX_POSE],
-) -> usize {
-    let (v_len, q_len) = (floats_len(&position), floats_len(&rotation));
-    let pose_len = 2 + v_len + 2 + q_len;
-    let time_len = if t_us != 0 { 9 } else { 0 };
-    let mut n = 0;
-    let mut put = |bytes: &[u8]| {
-        out[n..n + bytes.len()].copy_from_slice(bytes);
-        n += bytes.len();
-    };
-    put(&[0x0A, (2 + pose_len + time_len) as u8, 0x0A, pose_len as u8]);
-    for (key, floats, len) in [(0x0A, &position[..], v_len), (0x12, &rotation[..], q_len)] {
-        put(&[key, len as u8]);
-        for (field, x) in (1u8..).zip(floats) {
-            if *x != 0.0 {
-                // Field `field`, wire type fixed32.
-                put(&[(field << 3) | 5]);
-                put(&x.to_le_bytes());
-            }
-        }
-    }
-    if t_us != 0 {
-        put(&[0x11]);
-        put(&t_us.to_le_bytes());
-    }
-    n
-}
-
-fn whole_len(position: &[f32; 3], rotation: &[f32; 4], t_us: u64) -> usize {
-    4 + 2 + floats_len(position) + 2 + floats_len(rotation) + if t_us != 0 { 9 } else { 0 }
-}
-
 impl Message for Trajectory {
     fn encode_raw(&self, buf: &mut impl BufMut) {
         let mut bytes = [0u8; MAX_POSE];
         for p in &self.poses {
-            match fields(p) {
-                Some((position, rotation, t_us)) => {
-                    let n = write_whole(position, rotation, t_us, &mut bytes);
+            match WholePose::of(p) {
+                Some(whole) => {
+                    let n = whole.write(&mut bytes);
                     buf.put_slice(&bytes[..n]);
                 }
                 None => message::encode(1, p, buf),
@@ -104,8 +127,8 @@ impl Message for Trajectory {
     fn encoded_len(&self) -> usize {
         self.poses
             .iter()
-            .map(|p| match fields(p) {
-                Some((position, rotation, t_us)) => whole_len(&position, &rotation, t_us),
+            .map(|p| match WholePose::of(p) {
+                Some(whole) => whole.len(),
                 None => message::encoded_len(1, p),
             })
             .sum()

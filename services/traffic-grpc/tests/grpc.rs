@@ -6,12 +6,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-/// At run time: a binary built from another checkout that shares the build
-/// directory reads this checkout's files.
 fn crate_dir() -> PathBuf {
-    std::env::var_os("CARGO_MANIFEST_DIR")
-        .map(std::path::PathBuf::from)
-        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into())
+    trafficmesh_testkit::repo_root().join("services/traffic-grpc")
 }
 
 /// A Python with the gRPC tools, health and reflection clients, and Zenoh.

@@ -6,6 +6,7 @@
 pub mod args;
 mod kit;
 pub mod settings;
+pub mod stats;
 
 pub use args::{MapArgs, SpeedSource};
 pub use kit::{Service, ServiceArgs, run};

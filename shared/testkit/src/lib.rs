@@ -202,6 +202,21 @@ max_backoff_ms = {backoff}
     )
 }
 
+/// The repository's root, found at run time from the directory cargo and
+/// nextest give the test process (CARGO_MANIFEST_DIR): a test binary built
+/// from another checkout that shares the build directory reads this
+/// checkout's files. The root is the nearest directory with a Cargo.lock.
+pub fn repo_root() -> PathBuf {
+    let package = std::env::var_os("CARGO_MANIFEST_DIR")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| env!("CARGO_MANIFEST_DIR").into());
+    package
+        .ancestors()
+        .find(|d| d.join("Cargo.lock").exists())
+        .unwrap_or(&package)
+        .to_path_buf()
+}
+
 /// A Python (TRAFFICMESH_PYTHON, else python3) that can `import <module>`.
 /// None, with a notice, when there is none, unless TRAFFICMESH_REQUIRE_PYTHON=1
 /// (CI), which turns the absence into a failure.

@@ -14,6 +14,7 @@ use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_protocol::wire::Clock;
+use trafficmesh_service::stats::quantile;
 
 use super::bench_up;
 
@@ -59,14 +60,6 @@ struct Report {
     real_time: bool,
 }
 
-fn pct(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
-}
-
 pub fn run(a: AdminArgs) -> Result<()> {
     if a.size == 0
         || a.vehicles == 0
@@ -96,12 +89,12 @@ pub fn run(a: AdminArgs) -> Result<()> {
         requests: latencies.len(),
         errors,
         achieved_rate: latencies.len() as f64 / wall,
-        latency_p50_ms: pct(&mut latencies, 0.5),
-        latency_p90_ms: pct(&mut latencies, 0.9),
-        latency_p99_ms: pct(&mut latencies, 0.99),
-        latency_max_ms: pct(&mut latencies, 1.0),
+        latency_p50_ms: quantile(&mut latencies, 0.5),
+        latency_p90_ms: quantile(&mut latencies, 0.9),
+        latency_p99_ms: quantile(&mut latencies, 0.99),
+        latency_max_ms: quantile(&mut latencies, 1.0),
         ticks_per_sec,
-        tick_p99_ms: pct(&mut tick_ms, 0.99),
+        tick_p99_ms: quantile(&mut tick_ms, 0.99),
         real_time: ticks_per_sec >= 49.0,
     };
     if a.json {

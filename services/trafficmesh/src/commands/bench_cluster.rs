@@ -14,6 +14,7 @@ use clap::Args;
 use serde::Serialize;
 use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_protocol::wire::{Clock, VehicleBatch};
+use trafficmesh_service::stats::quantile;
 
 #[derive(Args)]
 pub struct ClusterArgs {
@@ -61,14 +62,6 @@ struct Report {
     json_bytes: usize,
     json_encode_ms: f64,
     json_decode_ms: f64,
-}
-
-fn pct(v: &mut [f64], q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    v[((v.len() - 1) as f64 * q).round() as usize]
 }
 
 pub fn run(a: ClusterArgs) -> Result<()> {
@@ -174,12 +167,12 @@ fn measure(a: &ClusterArgs, args: &BusArgs) -> Result<Report> {
             seconds,
             ticks_per_sec,
             real_time: ticks_per_sec >= 49.0,
-            tick_p50_ms: pct(&mut ticks_ms, 0.5),
-            tick_p99_ms: pct(&mut ticks_ms, 0.99),
+            tick_p50_ms: quantile(&mut ticks_ms, 0.5),
+            tick_p99_ms: quantile(&mut ticks_ms, 0.99),
             batches_received: latencies.len(),
             batches_per_sec: latencies.len() as f64 / seconds,
-            batch_latency_p50_ms: pct(&mut latencies, 0.5),
-            batch_latency_p99_ms: pct(&mut latencies, 0.99),
+            batch_latency_p50_ms: quantile(&mut latencies, 0.5),
+            batch_latency_p99_ms: quantile(&mut latencies, 0.99),
             batch_bytes: cost.binary.bytes,
             binary_encode_ms: cost.binary.encode_ms,
             binary_decode_ms: cost.binary.decode_ms,
@@ -240,7 +233,7 @@ fn time_codec(
     }
     Ok(Cost {
         bytes,
-        encode_ms: pct(&mut enc, 0.5),
-        decode_ms: pct(&mut dec, 0.5),
+        encode_ms: quantile(&mut enc, 0.5),
+        decode_ms: quantile(&mut dec, 0.5),
     })
 }

@@ -28,19 +28,6 @@ pub fn yaw_of(rotation: DQuat) -> f64 {
     x.y.atan2(x.x)
 }
 
-/// The rotation about the vertical axis that turns the x axis onto the unit
-/// vector `heading`: `DQuat::from_rotation_z` of its angle, by the half-angle
-/// identities instead of an arctangent, a sine and a cosine (a forecast
-/// makes thousands per answer).
-pub fn rotation_towards(heading: DVec2) -> DQuat {
-    let w = ((1.0 + heading.x) * 0.5).max(0.0).sqrt();
-    let z = ((1.0 - heading.x) * 0.5)
-        .max(0.0)
-        .sqrt()
-        .copysign(heading.y);
-    DQuat::from_xyzw(0.0, 0.0, z, w)
-}
-
 /// Poses sorted by time.
 #[derive(Clone, Debug, Default)]
 pub struct PoseLog {
@@ -108,7 +95,7 @@ impl PoseLog {
     }
 
     /// Velocity in the plane at `t_us`, m/s, from the poses around it.
-    pub fn velocity(&self, t_us: u64) -> glam::DVec2 {
+    pub fn velocity(&self, t_us: u64) -> DVec2 {
         let k = self.poses.partition_point(|p| p.t_us < t_us);
         let (a, b) = match (
             k.checked_sub(1).and_then(|i| self.poses.get(i)),
@@ -117,11 +104,11 @@ impl PoseLog {
             (Some(a), Some(b)) if b.t_us > a.t_us => (a, b),
             (Some(a), _) if k >= 2 => (&self.poses[k - 2], a),
             (_, Some(b)) if k + 1 < self.poses.len() => (b, &self.poses[k + 1]),
-            _ => return glam::DVec2::ZERO,
+            _ => return DVec2::ZERO,
         };
         let dt = (b.t_us - a.t_us) as f64 * 1e-6;
         if dt <= 0.0 {
-            return glam::DVec2::ZERO;
+            return DVec2::ZERO;
         }
         (b.position - a.position).truncate() / dt
     }
@@ -160,8 +147,9 @@ mod tests {
 
     #[test]
     fn a_heading_gives_the_rotation_of_its_angle() {
+        // How forecasts turn a lane's heading into a rotation, without trigonometry.
         for yaw in [-3.1, -2.0, -0.3, 0.0, 0.7, 1.5, 3.0, std::f64::consts::PI] {
-            let q = rotation_towards(DVec2::from_angle(yaw));
+            let q = DQuat::from_rotation_arc_2d(DVec2::X, DVec2::from_angle(yaw));
             let want = DQuat::from_rotation_z(yaw);
             assert!(
                 q.dot(want).abs() > 1.0 - 1e-12,

@@ -229,8 +229,13 @@ impl TrafficSession {
             .iter()
             .flat_map(|w| w.vehicles().iter().enumerate().map(|(i, v)| (v.id, i)))
             .collect();
+        // The queried time, then the forecast's.
+        let step = self.config.forecast_step_us.max(1);
+        let times: Vec<u64> = (0..=self.config.forecast_horizon_us / step)
+            .map(|i| t_us + i * step)
+            .collect();
         Ok((0..self.actors.len())
-            .map(|k| self.answer(k, t_us, lag, &slots))
+            .map(|k| self.answer(k, &times, lag, &slots))
             .collect())
     }
 
@@ -366,61 +371,54 @@ impl TrafficSession {
         clients.chain(actors).collect()
     }
 
-    /// Actor `k`'s pose at `t_us` and its forecast. `lag` is how far `t_us`
-    /// lies past the world's last tick, seconds; `slots` where each vehicle
-    /// is in the world's list.
+    /// Actor `k`'s poses at `times` (the queried time first, then its
+    /// forecast). `lag` is how far the queried time lies past the world's
+    /// last tick, seconds; `slots` where each vehicle is in the world's list.
     fn answer(
         &mut self,
         k: usize,
-        t_us: u64,
+        times: &[u64],
         lag: f64,
         slots: &HashMap<VehicleId, usize>,
     ) -> ActorAnswer {
-        let step = self.config.forecast_step_us.max(1);
-        let later: Vec<u64> = (1..=self.config.forecast_horizon_us / step)
-            .map(|i| t_us + i * step)
-            .collect();
+        let t_us = times[0];
+        // Seconds from the queried time to `t`.
+        let after = |t: u64| (t - t_us) as f64 * 1e-6;
+        let held = |p: PoseAt| times.iter().map(move |&t| PoseAt { t_us: t, ..p });
         let a = &self.actors[k];
-        let held = |p: PoseAt, t: u64| PoseAt { t_us: t, ..p };
         let poses: Vec<PoseAt> = match &a.control {
             Control::Log | Control::Client => {
                 let now = a.log.at_or_held(t_us).or(a.pose);
                 let v = a.log.velocity(t_us);
-                std::iter::once(t_us)
-                    .chain(later.iter().copied())
-                    .filter_map(|t| {
+                times
+                    .iter()
+                    .filter_map(|&t| {
                         a.log.at(t).or_else(|| {
                             now.map(|p| PoseAt {
                                 t_us: t,
-                                position: p.position + (v * ((t - t_us) as f64 * 1e-6)).extend(0.0),
+                                position: p.position + (v * after(t)).extend(0.0),
                                 rotation: p.rotation,
                             })
                         })
                     })
                     .collect()
             }
-            Control::Parked(p) => std::iter::once(t_us)
-                .chain(later.iter().copied())
-                .map(|t| held(*p, t))
-                .collect(),
-            Control::Free(body) => std::iter::once(t_us)
-                .chain(later.iter().copied())
-                .map(|t| body.pose_after(t, lag + (t - t_us) as f64 * 1e-6))
+            Control::Parked(p) => held(*p).collect(),
+            Control::Free(body) => times
+                .iter()
+                .map(|&t| body.pose_after(t, lag + after(t)))
                 .collect(),
             Control::Npc { vehicle, lift } => {
                 let world = self.world.as_ref().expect("NPCs live in a world");
                 match slots.get(vehicle).map(|&i| &world.vehicles()[i]) {
                     Some(v) => {
-                        let times = std::iter::once(t_us).chain(later.iter().copied());
-                        let aheads = times
-                            .clone()
-                            .map(|t| v.speed * (lag + (t - t_us) as f64 * 1e-6));
+                        let aheads = times.iter().map(|&t| v.speed * (lag + after(t)));
                         placement::along_path(world.network(), &v.path, v.s, v.length, aheads)
                             .zip(times)
-                            .map(|((c, heading), t)| PoseAt {
+                            .map(|((c, heading), &t)| PoseAt {
                                 t_us: t,
                                 position: c + DVec3::Z * *lift,
-                                rotation: log::rotation_towards(heading),
+                                rotation: DQuat::from_rotation_arc_2d(DVec2::X, heading),
                             })
                             .collect()
                     }
@@ -432,10 +430,7 @@ impl TrafficSession {
                             rotation: DQuat::IDENTITY,
                         });
                         self.actors[k].control = Control::Parked(last);
-                        std::iter::once(t_us)
-                            .chain(later.iter().copied())
-                            .map(|t| held(last, t))
-                            .collect()
+                        held(last).collect()
                     }
                 }
             }
