@@ -2,7 +2,10 @@
 //! it. The service runs in-process on a loopback port; each session is a
 //! gRPC client over TCP with `objects` logged actors on a generated grid,
 //! called every 100 ms (the runtime's control step) with the ego's poses,
-//! the sessions' calls spread over the step.
+//! the sessions' calls spread over the step. A call's latency runs from the
+//! request sent to the whole answer received; the client's own decoding of
+//! the answer is timed apart, since it depends on the client's language and
+//! library, not on the service.
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -16,11 +19,17 @@ use trafficmesh_service::stats::quantile;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::session::SessionConfig;
 
+use prost::Message;
+use prost::bytes::{Buf, Bytes};
+use tonic::codec::{BufferSettings, Codec, DecodeBuf, Decoder};
+use tonic::codegen::http::uri::PathAndQuery;
+
 use crate::catalogue::Scene;
+use crate::codec::{BUFFER_SIZE, WholeEncoder};
 use crate::proto::common::{Aabb, Pose, PoseAtTime, Quat, Trajectory, Vec3};
 use crate::proto::traffic::traffic_service_client::TrafficServiceClient;
 use crate::proto::traffic::{
-    ObjectTrajectory, ObjectTrajectoryUpdate, TrafficRequest, TrafficSessionRequest,
+    ObjectTrajectory, ObjectTrajectoryUpdate, TrafficRequest, TrafficReturn, TrafficSessionRequest,
 };
 
 /// The runtime's control step, microseconds.
@@ -48,10 +57,48 @@ pub struct BenchRow {
     pub p50_ms: f64,
     pub p99_ms: f64,
     pub max_ms: f64,
+    /// The client decoding an answer, after it arrived: p50.
+    pub client_decode_p50_ms: f64,
     /// The service's own part of a call (the session's step and the answer
     /// built, before encoding): p50 and p99.
     pub step_p50_ms: f64,
     pub step_p99_ms: f64,
+}
+
+/// simulate() as a client that keeps the answer's bytes, so that a call's
+/// latency ends when the answer has arrived; it is decoded afterwards.
+#[derive(Default)]
+struct ArrivalCodec;
+
+impl Codec for ArrivalCodec {
+    type Encode = TrafficRequest;
+    type Decode = Bytes;
+    type Encoder = WholeEncoder<TrafficRequest>;
+    type Decoder = BytesDecoder;
+
+    fn encoder(&mut self) -> Self::Encoder {
+        WholeEncoder::default()
+    }
+
+    fn decoder(&mut self) -> Self::Decoder {
+        BytesDecoder
+    }
+}
+
+struct BytesDecoder;
+
+impl Decoder for BytesDecoder {
+    type Item = Bytes;
+    type Error = tonic::Status;
+
+    fn decode(&mut self, buf: &mut DecodeBuf<'_>) -> Result<Option<Bytes>, tonic::Status> {
+        let len = buf.remaining();
+        Ok(Some(buf.copy_to_bytes(len)))
+    }
+
+    fn buffer_settings(&self) -> BufferSettings {
+        BufferSettings::new(BUFFER_SIZE, BUFFER_SIZE)
+    }
 }
 
 /// The grid the sessions drive on: 6 x 6 junctions, 200 m blocks.
@@ -127,7 +174,7 @@ async fn session(
     seconds: u64,
     phase: Duration,
     started: Arc<tokio::sync::Barrier>,
-) -> Result<Vec<Duration>> {
+) -> Result<Vec<(Duration, Duration)>> {
     let actors = objects.len();
     let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))?
         .tcp_nodelay(true)
@@ -137,7 +184,8 @@ async fn session(
         .max_frame_size(crate::WINDOW)
         .connect()
         .await?;
-    let mut client = TrafficServiceClient::new(channel);
+    let mut client = TrafficServiceClient::new(channel.clone());
+    let mut raw = tonic::client::Grpc::new(channel);
     client
         .start_session(TrafficSessionRequest {
             session_uuid: id.clone(),
@@ -161,19 +209,28 @@ async fn session(
                 poses: vec![pose_at(t, DVec2::new(-500.0, -500.0), 0.0)],
             }),
         };
+        let request = tonic::Request::new(TrafficRequest {
+            session_uuid: id.clone(),
+            time_query_us: t,
+            object_trajectory_updates: vec![ego],
+        });
+        raw.ready().await?;
         let started = Instant::now();
-        let answer = client
-            .simulate(TrafficRequest {
-                session_uuid: id.clone(),
-                time_query_us: t,
-                object_trajectory_updates: vec![ego],
-            })
-            .await?;
-        latencies.push(started.elapsed());
+        let bytes = raw
+            .unary(
+                request,
+                PathAndQuery::from_static("/traffic.TrafficService/simulate"),
+                ArrivalCodec,
+            )
+            .await?
+            .into_inner();
+        let arrived = started.elapsed();
+        let answer = TrafficReturn::decode(bytes).context("decoding an answer")?;
+        latencies.push((arrived, started.elapsed() - arrived));
         anyhow::ensure!(
-            answer.get_ref().object_trajectory_updates.len() == actors,
+            answer.object_trajectory_updates.len() == actors,
             "session {id} answered {} of its {actors} actors",
-            answer.get_ref().object_trajectory_updates.len()
+            answer.object_trajectory_updates.len()
         );
     }
     client
@@ -236,8 +293,12 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
             .collect();
         let ms = |d: Duration| d.as_secs_f64() * 1e3;
         let mut all = Vec::new();
+        let mut decoding = Vec::new();
         for r in runs {
-            all.extend(r.await??.into_iter().map(ms));
+            for (arrived, decoded) in r.await?? {
+                all.push(ms(arrived));
+                decoding.push(ms(decoded));
+            }
         }
         let steps = std::mem::take(&mut *step_times.lock().expect("never poisoned"));
         let mut steps: Vec<f64> = steps.into_iter().map(ms).collect();
@@ -249,6 +310,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
             p50_ms: quantile(&mut all, 0.5),
             p99_ms: quantile(&mut all, 0.99),
             max_ms: quantile(&mut all, 1.0),
+            client_decode_p50_ms: quantile(&mut decoding, 0.5),
             step_p50_ms: quantile(&mut steps, 0.5),
             step_p99_ms: quantile(&mut steps, 0.99),
         });

@@ -31,7 +31,7 @@ where
     type Decoder = WholeDecoder<U>;
 
     fn encoder(&mut self) -> Self::Encoder {
-        WholeEncoder(PhantomData)
+        WholeEncoder::default()
     }
 
     fn decoder(&mut self) -> Self::Decoder {
@@ -41,9 +41,15 @@ where
 
 /// Frame buffers start this large, bytes: an answer of 200 actors with 2 s
 /// forecasts is about 180 kB, and growing the buffer copies it each time.
-const BUFFER_SIZE: usize = 256 << 10;
+pub const BUFFER_SIZE: usize = 256 << 10;
 
 pub struct WholeEncoder<T>(PhantomData<T>);
+
+impl<T> Default for WholeEncoder<T> {
+    fn default() -> Self {
+        WholeEncoder(PhantomData)
+    }
+}
 
 impl<T: Message> Encoder for WholeEncoder<T> {
     type Item = T;
