@@ -40,8 +40,49 @@ struct Network<'m> {
     classes: HashMap<&'m str, &'m [String]>,
 }
 
-/// The cheapest way on from a lane: its cost and its lanes (that lane first).
-type Continuation = Option<(f64, Vec<String>)>;
+/// The cheapest way on from a lane: its cost, the load on its lanes, and its
+/// lanes (that lane first).
+type Continuation = Option<(f64, f64, Vec<String>)>;
+
+/// Seconds over which a departure's weight on the lanes of its route fades
+/// to 1/e: about the time a trip spends on the way.
+const LOAD_MEMORY: f64 = 600.0;
+
+/// The recent departures whose chosen lane routes run along each normal lane,
+/// each weighted by how recently it departed. Drivers choose among lanes that
+/// serve their way equally well by their queues; a lane that also carries a
+/// turn has the longer queue, so those going on straight take the others.
+#[derive(Default)]
+struct LaneLoads(HashMap<String, (f64, f64)>);
+
+impl LaneLoads {
+    /// The load on `lane` at departure time `t`.
+    fn at(&self, lane: &str, t: f64) -> f64 {
+        match self.0.get(lane) {
+            Some(&(weight, since)) if t > since => weight * (-(t - since) / LOAD_MEMORY).exp(),
+            Some(&(weight, _)) => weight,
+            None => 0.0,
+        }
+    }
+
+    /// One more departure at `t` along `lanes`.
+    fn add(&mut self, lanes: &[String], t: f64) {
+        for lane in lanes.iter().filter(|l| !l.starts_with(':')) {
+            let weight = self.at(lane, t) + 1.0;
+            let since = self.0.get(lane.as_str()).map_or(t, |&(_, s)| s.max(t));
+            self.0.insert(lane.clone(), (weight, since));
+        }
+    }
+
+    /// The load of a normal lane; junction lanes carry none.
+    fn of(&self, lane: &str, t: f64) -> f64 {
+        if lane.starts_with(':') {
+            0.0
+        } else {
+            self.at(lane, t)
+        }
+    }
+}
 
 /// Lanes shorter than this make a lane change on them dearer: there is little
 /// or no room to wait for a gap (netconvert splits edges into pieces of 0.2 m).
@@ -97,33 +138,43 @@ impl<'m> Network<'m> {
     /// Of all lane routes it takes those with the fewest lane changes, placed
     /// where there is room for them (SUMO's `departLane="best"` and its
     /// strategic lane choice), on lanes that allow `class`: one per start
-    /// lane, the preferred first. Among equals `spread` picks: vehicles given
-    /// different values spread over the lanes that serve their way equally
-    /// well, as drivers do, instead of all queueing in one of them. Also
-    /// returns how many lane changes the preferred route needs.
+    /// lane, the preferred first. Among equals the least loaded at departure
+    /// time `t` wins, so that vehicles spread over the lanes that serve their
+    /// way equally well, as drivers do, instead of all queueing in one of
+    /// them; among equal loads `spread` picks. Also returns how many lane
+    /// changes the preferred route needs.
     fn lane_routes(
         &self,
         edges: &[&str],
         class: &str,
         spread: u64,
+        loads: &LaneLoads,
+        t: f64,
     ) -> Option<(Vec<Vec<String>>, usize)> {
         let mut memo: HashMap<(&str, usize), Continuation> = HashMap::new();
-        let mut starts: Vec<(f64, TieKey, Vec<String>)> = self
+        let ways = Ways {
+            edges,
+            class,
+            spread,
+            loads,
+            t,
+        };
+        let mut starts: Vec<(Rank, Vec<String>)> = self
             .edge_lanes
             .get(edges.first()?)?
             .iter()
             .filter(|start| self.allows(start, class))
             .filter_map(|start| {
-                let (cost, lanes) = self.extend(start, edges, 1, class, spread, &mut memo)?;
-                Some((cost, draw(spread, start), lanes))
+                let (cost, load, lanes) = self.extend(start, &ways, 1, &mut memo)?;
+                Some((rank(cost, load, draw(spread, start)), lanes))
             })
             .collect();
-        starts.sort_by(|a, b| cheaper(a.0, a.1, b.0, b.1));
-        let best_cost = starts.first()?.0;
-        starts.retain(|s| (s.0 - best_cost).abs() < SAME_COST);
+        starts.sort_by(|a, b| cheaper(a.0, b.0));
+        let best_cost = starts.first()?.0.cost;
+        starts.retain(|s| (s.0.cost - best_cost).abs() < SAME_COST);
         // Where two listed lanes are not linked, the vehicle changes lanes.
         let changes = starts[0]
-            .2
+            .1
             .windows(2)
             .filter(|w| {
                 !self
@@ -132,26 +183,26 @@ impl<'m> Network<'m> {
                     .is_some_and(|n| n.contains(&w[1]))
             })
             .count();
-        Some((starts.into_iter().map(|s| s.2).collect(), changes))
+        Some((starts.into_iter().map(|s| s.1).collect(), changes))
     }
 
     /// The cheapest continuation from `lane` (a lane of `edges[k - 1]`).
     fn extend<'a>(
         &'a self,
         lane: &'a str,
-        edges: &[&str],
+        ways: &Ways,
         k: usize,
-        class: &str,
-        spread: u64,
         memo: &mut HashMap<(&'a str, usize), Continuation>,
     ) -> Continuation {
+        let (edges, class) = (ways.edges, ways.class);
+        let here = ways.loads.of(lane, ways.t);
         if k == edges.len() {
-            return Some((0.0, vec![lane.to_string()]));
+            return Some((0.0, here, vec![lane.to_string()]));
         }
         if let Some(known) = memo.get(&(lane, k)) {
             return known.clone();
         }
-        let mut best: Option<(f64, TieKey, Vec<String>)> = None;
+        let mut best: Option<(Rank, Vec<String>)> = None;
         // Through up to three internal lanes to a lane of the next edge.
         let mut frontier: Vec<Vec<&str>> = vec![vec![lane]];
         for _ in 0..4 {
@@ -185,26 +236,27 @@ impl<'m> Network<'m> {
                             .filter(|s| *s != n.as_str() && self.allows(s, class)),
                     );
                     for (i, entry) in candidates.enumerate() {
-                        let Some((cost, rest)) =
-                            self.extend(entry, edges, k + 1, class, spread, memo)
-                        else {
+                        let Some((cost, load, rest)) = self.extend(entry, ways, k + 1, memo) else {
                             continue;
                         };
                         let cost = cost + if i > 0 { self.shift_cost(n) } else { 0.0 };
-                        let key = draw(spread, entry);
-                        if best.as_ref().is_none_or(|b| {
-                            cheaper(cost, key, b.0, b.1) == std::cmp::Ordering::Less
-                        }) {
+                        // A change on the reached lane runs along it too.
+                        let load = load + if i > 0 { ways.loads.of(n, ways.t) } else { 0.0 };
+                        let candidate = rank(cost, load, draw(ways.spread, entry));
+                        if best
+                            .as_ref()
+                            .is_none_or(|b| cheaper(candidate, b.0) == std::cmp::Ordering::Less)
+                        {
                             let mut out: Vec<String> = p.iter().map(|s| s.to_string()).collect();
                             out.extend(rest.into_iter().skip(1));
-                            best = Some((cost, key, out));
+                            best = Some((candidate, out));
                         }
                     }
                 }
             }
             frontier = further;
         }
-        let best = best.map(|(cost, _, lanes)| (cost, lanes));
+        let best = best.map(|(r, lanes)| (r.cost, here + r.load, lanes));
         memo.insert((lane, k), best.clone());
         best
     }
@@ -213,12 +265,37 @@ impl<'m> Network<'m> {
 /// Lane routes whose costs differ by less than this are equally good.
 const SAME_COST: f64 = 1e-6;
 
-/// Orders two lane routes by cost, equal costs by their tie keys.
-fn cheaper(cost_a: f64, key_a: TieKey, cost_b: f64, key_b: TieKey) -> std::cmp::Ordering {
-    if (cost_a - cost_b).abs() < SAME_COST {
-        key_a.cmp(&key_b)
+/// One departure's lane-route search: its edges, class, tie draw, and the
+/// lanes' loads at its departure time.
+struct Ways<'w> {
+    edges: &'w [&'w str],
+    class: &'w str,
+    spread: u64,
+    loads: &'w LaneLoads,
+    t: f64,
+}
+
+/// How good a lane route is: its cost, then its load, then its tie key.
+#[derive(Clone, Copy)]
+struct Rank {
+    cost: f64,
+    load: f64,
+    key: TieKey,
+}
+
+fn rank(cost: f64, load: f64, key: TieKey) -> Rank {
+    Rank { cost, load, key }
+}
+
+/// Orders two lane routes by cost; equal costs by load, equal loads by their
+/// tie keys.
+fn cheaper(a: Rank, b: Rank) -> std::cmp::Ordering {
+    if (a.cost - b.cost).abs() >= SAME_COST {
+        a.cost.total_cmp(&b.cost)
+    } else if (a.load - b.load).abs() >= SAME_COST {
+        a.load.total_cmp(&b.load)
     } else {
-        cost_a.total_cmp(&cost_b)
+        a.key.cmp(&b.key)
     }
 }
 
@@ -271,6 +348,8 @@ pub struct DemandBuilder<'m> {
     unconnected: Vec<String>,
     /// Edge routes (per class) that need a lane change on the way.
     shifted_routes: usize,
+    /// The departures so far along each lane, for the next ones' lane choice.
+    loads: LaneLoads,
     /// Vehicles whose vType no file read defines, by type.
     undefined_types: std::collections::BTreeMap<String, usize>,
 }
@@ -292,6 +371,7 @@ impl<'m> DemandBuilder<'m> {
             unrouted: 0,
             unconnected: Vec::new(),
             shifted_routes: 0,
+            loads: LaneLoads::default(),
             undefined_types: Default::default(),
         }
     }
@@ -416,11 +496,13 @@ impl<'m> DemandBuilder<'m> {
                 // equally good lanes.
                 let first = routed.insert((class.clone(), edges.clone()));
                 let Some((routes, changes)) =
-                    self.net.lane_routes(&edges, &class, mix(self.seed, id, k))
+                    self.net
+                        .lane_routes(&edges, &class, mix(self.seed, id, k), &self.loads, time)
                 else {
                     connected = false;
                     continue;
                 };
+                self.loads.add(&routes[0], time);
                 if first && changes > 0 {
                     self.shifted_routes += 1;
                 }

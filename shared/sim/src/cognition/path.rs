@@ -77,18 +77,30 @@ pub fn first_junction_lane(net: &LaneNetwork, path: &[LaneId]) -> Option<FirstJu
     None
 }
 
+/// Lanes walked back through, at most, past the previous lane when the body
+/// reaches behind its start (a short junction lane and the lane before it).
+const LANES_BEHIND: usize = 3;
+
 /// Point (and height) at along-path offset `ds` from the front bumper; negative
-/// offsets reach back into the previous lane.
+/// offsets reach back into the previous lane, and past a previous lane shorter
+/// than that into the lane that leads to it: extended straight instead, the
+/// body of a car that just left a tight turn would point back along the
+/// turn's first segment, across the lanes beside it.
 pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
     let mut s = v.s + ds;
     if s < 0.0 {
-        return match v.prev_lane {
-            Some(p) => {
-                let line = &net.lane(p).line;
-                line.point_at(line.length() + s)
-            }
-            None => net.lane(v.path[0]).line.point_at(s),
+        let Some(mut lane) = v.prev_lane else {
+            return net.lane(v.path[0]).line.point_at(s);
         };
+        for _ in 0..LANES_BEHIND {
+            let line = &net.lane(lane).line;
+            s += line.length();
+            match lane_before(net, lane) {
+                Some(before) if s < 0.0 => lane = before,
+                _ => return line.point_at(s),
+            }
+        }
+        return net.lane(lane).line.point_at(s + net.lane(lane).length());
     }
     for (k, &lane) in v.path.iter().enumerate() {
         let line = &net.lane(lane).line;
@@ -98,6 +110,21 @@ pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
         s -= line.length();
     }
     unreachable!("a vehicle's path is never empty")
+}
+
+/// The lane that leads into `lane`: of several, the one ending nearest its
+/// start (the first listed among equals).
+fn lane_before(net: &LaneNetwork, lane: LaneId) -> Option<LaneId> {
+    let start = net.lane(lane).line.point(0);
+    let end = |p: LaneId| {
+        let line = &net.lane(p).line;
+        line.point(line.point_count() - 1).distance_squared(start)
+    };
+    net.lane(lane)
+        .prev
+        .iter()
+        .copied()
+        .min_by(|&a, &b| end(a).total_cmp(&end(b)))
 }
 
 /// The path cannot be extended: its last lane has no successor.
