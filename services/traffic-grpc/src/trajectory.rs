@@ -63,33 +63,38 @@ impl WholePose {
     /// Writes those bytes to `out`; returns their count.
     fn write(&self, out: &mut [u8; MAX_POSE]) -> usize {
         let pose_len = self.pose_len();
-        let mut n = 0;
-        let mut put = |bytes: &[u8]| {
-            out[n..n + bytes.len()].copy_from_slice(bytes);
-            n += bytes.len();
-        };
-        put(&[
+        out[..4].copy_from_slice(&[
             0x0A,
             (2 + pose_len + self.time_len()) as u8,
             0x0A,
             pose_len as u8,
         ]);
-        for (key, floats) in [(0x0A, &self.position[..]), (0x12, &self.rotation[..])] {
-            put(&[key, floats_len(floats) as u8]);
-            for (field, x) in (1u8..).zip(floats) {
-                if *x != 0.0 {
-                    // Field `field`, wire type fixed32.
-                    put(&[(field << 3) | 5]);
-                    put(&x.to_le_bytes());
-                }
-            }
-        }
+        let n = write_floats(out, 4, 0x0A, &self.position);
+        let mut n = write_floats(out, n, 0x12, &self.rotation);
         if self.t_us != 0 {
-            put(&[0x11]);
-            put(&self.t_us.to_le_bytes());
+            out[n] = 0x11;
+            out[n + 1..n + 9].copy_from_slice(&self.t_us.to_le_bytes());
+            n += 9;
         }
         n
     }
+}
+
+/// Writes the message of `floats` (fixed32 fields 1, 2, ... left out at
+/// zero) as field `key` of its parent at `out[n..]`; returns the end.
+fn write_floats(out: &mut [u8; MAX_POSE], n: usize, key: u8, floats: &[f32]) -> usize {
+    out[n] = key;
+    let start = n + 2;
+    let mut end = start;
+    for (field, x) in (1u8..).zip(floats) {
+        if *x != 0.0 {
+            out[end] = (field << 3) | 5;
+            out[end + 1..end + 5].copy_from_slice(&x.to_le_bytes());
+            end += 5;
+        }
+    }
+    out[n + 1] = (end - start) as u8;
+    end
 }
 
 /// Bytes of the fixed32 fields of `floats` that are not zero.
