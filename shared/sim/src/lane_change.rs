@@ -1,7 +1,8 @@
-//! Lane changes that a route needs. The NPC model follows lanes and never
-//! changes them, but a routed demand (SUMO's) may go on from the lane beside the
-//! one a vehicle is on: its path then continues from a sibling lane of the same
-//! road. The vehicle moves across at the first gap there, and stops before its
+//! Lane changes that a path needs. The reference's NPC model follows lanes and
+//! never changes them, but a routed demand (SUMO's) may go on from the lane
+//! beside the one a vehicle is on, and so may a realistic driver's random way
+//! on (see `cognition::path::extend_path`): its path then continues from a
+//! sibling lane of the same road. The vehicle moves across at the first gap there, and stops before its
 //! lane's end until it finds one; meanwhile those coming up behind on the other
 //! lane leave it room (the lane index shows it there as a ghost).
 
@@ -11,10 +12,6 @@ use crate::decision::MIN_FRONT_VEHICLE_DISTANCE;
 use crate::lane_index::LaneIndex;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::Vehicle;
-
-/// Siblings have lengths within this of each other and start within this far
-/// apart, metres.
-const SIBLING_TOLERANCE: f64 = 12.0;
 
 /// Seconds the one behind takes to react to a car moving in ahead of it.
 const REACTION_TIME: f64 = 1.0;
@@ -37,22 +34,17 @@ pub fn pending_target(net: &LaneNetwork, v: &Vehicle) -> Option<LaneId> {
     sibling_towards(net, here, next)
 }
 
-/// A non-junction predecessor of `next` running beside `lane`: about as long,
-/// and starting near it.
+/// The sibling of `lane` (see [`crate::siblings`]) that leads to `next`; of
+/// several, the one starting nearest to it.
 fn sibling_towards(net: &LaneNetwork, lane: LaneId, next: LaneId) -> Option<LaneId> {
-    let l = net.lane(lane);
-    net.lane(next)
-        .prev
+    let start = net.lane(lane).line.point(0);
+    net.lane(lane)
+        .siblings
         .iter()
         .copied()
-        .filter(|&p| p != lane && !net.lane(p).intersection)
-        .filter(|&p| {
-            let s = net.lane(p);
-            (s.length() - l.length()).abs() < SIBLING_TOLERANCE
-                && s.line.point(0).distance(l.line.point(0)) < SIBLING_TOLERANCE
-        })
+        .filter(|s| net.lane(next).prev.contains(s))
         .min_by(|&a, &b| {
-            let d = |p: LaneId| net.lane(p).line.point(0).distance(l.line.point(0));
+            let d = |p: LaneId| net.lane(p).line.point(0).distance(start);
             d(a).total_cmp(&d(b))
         })
 }

@@ -34,6 +34,7 @@ pub mod populate;
 mod prefetch;
 mod rng;
 pub mod session;
+mod siblings;
 pub mod spawn;
 mod trajectory;
 mod vehicle;

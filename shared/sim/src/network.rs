@@ -46,6 +46,8 @@ pub struct Lane {
     pub stop_s: Option<f64>,
     /// The vehicle classes allowed here; empty: all.
     pub vehicle_classes: Vec<String>,
+    /// The lanes of the same road beside this one (see [`crate::siblings`]).
+    pub siblings: Vec<LaneId>,
 }
 
 impl Lane {
@@ -187,6 +189,7 @@ impl LaneNetwork {
                     conflicts: Vec::new(),
                     road_conflicts: false,
                     vehicle_classes: def.vehicle_classes.clone(),
+                    siblings: Vec::new(),
                 }
             })
             .collect();
@@ -196,6 +199,10 @@ impl LaneNetwork {
                     lanes[n as usize].prev.push(i as LaneId);
                 }
             }
+        }
+        let siblings = crate::siblings::find(&lanes);
+        for (lane, siblings) in lanes.iter_mut().zip(siblings) {
+            lane.siblings = siblings;
         }
         let junction_count =
             find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);

@@ -183,3 +183,56 @@ fn a_queue_starting_up_lets_in_a_car_waiting_at_its_lane_end() {
         "{ahead} of the queue went before the waiting car (it entered at {waiting_at:.1} s)"
     );
 }
+
+/// The road of `two_lane_road`, where the outer lane also turns right.
+fn road_with_a_right_turn_from_the_outer_lane() -> trafficmesh_model::MapFile {
+    let mut m = serde_json::to_value(two_lane_road()).unwrap();
+    let lanes = m["lanes"].as_array_mut().unwrap();
+    let mut turn = lane("r0", &[[200.0, 0.0], [210.0, -4.0], [215.0, -15.0]], &["r"]);
+    turn["intersection"] = json!(true);
+    turn["turn_direction"] = json!("right");
+    lanes.push(turn);
+    lanes.push(lane("r", &[[215.0, -15.0], [215.0, -200.0]], &[]));
+    for l in lanes.iter_mut() {
+        if l["name"] == "a0" {
+            l["next"] = json!(["j0", "r0"]);
+        }
+    }
+    serde_json::from_value(m).unwrap()
+}
+
+/// Of 20 vehicles without a route, each alone on the inner lane (seeds 0 to
+/// 19), how many turn right at the end of the road.
+fn right_turns_from_the_inner_lane(driver_model: trafficmesh_model::DriverModel) -> usize {
+    (0..20)
+        .filter(|&seed| {
+            let config = WorldConfig {
+                seed,
+                vehicle: trafficmesh_model::NpcVehicleConfig {
+                    driver_model,
+                    ..Default::default()
+                },
+                ..WorldConfig::default()
+            };
+            let mut w = world(&road_with_a_right_turn_from_the_outer_lane(), config);
+            let id = w.place_vehicle("Taxi", "a1", 10.0, 8.0).unwrap();
+            run_out(&mut w, &[id])[0].contains(&"r".to_string())
+        })
+        .count()
+}
+
+#[test]
+fn a_realistic_driver_without_a_route_may_change_lanes_for_a_turn_its_own_lane_does_not_make() {
+    let turned = right_turns_from_the_inner_lane(trafficmesh_model::DriverModel::Realistic(
+        Default::default(),
+    ));
+    assert!(
+        (3..=17).contains(&turned),
+        "about half of them turn right, across to the outer lane first: {turned} of 20"
+    );
+    assert_eq!(
+        right_turns_from_the_inner_lane(trafficmesh_model::DriverModel::Awsim),
+        0,
+        "the reference's NPCs keep their lanes"
+    );
+}

@@ -11,7 +11,10 @@ const LAYERS: &[(&str, &[&str])] = &[
         "leaves",
         &["geometry", "buckets", "rng", "parallel", "prefetch"],
     ),
-    ("network", &["network", "conflicts", "lights", "crosswalk"]),
+    (
+        "network",
+        &["network", "siblings", "conflicts", "lights", "crosswalk"],
+    ),
     (
         "agents",
         &[

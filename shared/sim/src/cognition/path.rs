@@ -131,12 +131,21 @@ fn lane_before(net: &LaneNetwork, lane: LaneId) -> Option<LaneId> {
 #[derive(Debug)]
 pub struct DeadEnd;
 
+/// Road lanes shorter than this offer no turns from the lanes beside them: no
+/// room to wait for a gap there, metres.
+const ROOM_TO_CHANGE: f64 = 20.0;
+
 /// Appends one lane to the path: the route's next lane, else a branch choice.
-/// Returns the choice made, if it was a choice between branches.
+/// Returns the choice made, if it was a choice between branches. With
+/// `turns_beside`, a lane that goes on only one way also offers the other
+/// turns of the lanes beside it, taken with a lane change on the way: a
+/// driver without a route is not held to its lane for ever (on a ring road
+/// the inner lane never leads off it).
 pub fn extend_path(
     net: &LaneNetwork,
     policy: &BranchPolicy,
     v: &mut Vehicle,
+    turns_beside: bool,
 ) -> Result<Option<BranchChoice>, DeadEnd> {
     if let Some(route) = &mut v.route
         && route.index + 1 < route.lanes.len()
@@ -164,6 +173,14 @@ pub fn extend_path(
             .collect();
         &allowed
     };
+    let widened: Vec<LaneId>;
+    let options = match other_turns(net, v, last, options) {
+        beside if turns_beside && options.len() == 1 && !beside.is_empty() => {
+            widened = options.iter().copied().chain(beside).collect();
+            &widened
+        }
+        _ => options,
+    };
     match options.len() {
         0 => Err(DeadEnd),
         1 => {
@@ -176,6 +193,30 @@ pub fn extend_path(
             Ok(Some(choice))
         }
     }
+}
+
+/// The junction lanes after the siblings of road lane `last` that turn a way
+/// none of `own` does and that the vehicle may use, one per way.
+fn other_turns(net: &LaneNetwork, v: &Vehicle, last: LaneId, own: &[LaneId]) -> Vec<LaneId> {
+    let lane = net.lane(last);
+    if lane.intersection || lane.length() < ROOM_TO_CHANGE {
+        return Vec::new();
+    }
+    let mut ways: Vec<_> = own.iter().map(|&n| net.lane(n).turn).collect();
+    let mut found = Vec::new();
+    // Only the lanes next to it: a change moves the body across at once.
+    let start = lane.line.point(0);
+    let beside = |s: LaneId| net.lane(s).line.point(0).distance(start) < 1.5 * lane.width.max(2.5);
+    for &sibling in lane.siblings.iter().filter(|&&s| beside(s)) {
+        for &n in &net.lane(sibling).next {
+            let turn = net.lane(n).turn;
+            if net.allows(n, v.kind) && !ways.contains(&turn) {
+                ways.push(turn);
+                found.push(n);
+            }
+        }
+    }
+    found
 }
 
 /// How far ahead the path must be known: beyond the slow-down distance nothing
@@ -194,13 +235,18 @@ pub fn advance_and_extend(
     config: &NpcVehicleConfig,
     decisions: &mut Vec<BranchChoice>,
 ) {
+    // The reference's NPCs keep their lanes; a realistic driver does not.
+    let turns_beside = matches!(
+        crate::control::driver_model(net, v, config),
+        trafficmesh_model::DriverModel::Realistic(_)
+    );
     loop {
         let len = net.lane(v.path[0]).length();
         if v.s <= len {
             break;
         }
         if v.path.len() < 2 {
-            match extend_path(net, policy, v) {
+            match extend_path(net, policy, v, turns_beside) {
                 Ok(choice) => decisions.extend(choice),
                 Err(DeadEnd) => {
                     v.should_despawn = true;
@@ -212,7 +258,7 @@ pub fn advance_and_extend(
     }
     let lookahead = needed_lookahead(v.speed, config);
     while v.path.len() < 3 || known_distance_ahead(v) < lookahead {
-        match extend_path(net, policy, v) {
+        match extend_path(net, policy, v, turns_beside) {
             Ok(choice) => decisions.extend(choice),
             Err(DeadEnd) => break,
         }
