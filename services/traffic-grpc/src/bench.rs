@@ -13,19 +13,18 @@ use std::time::{Duration, Instant};
 
 use anyhow::{Context, Result};
 use glam::DVec2;
+use prost::Message;
+use prost::bytes::{Buf, Bytes};
 use serde::Serialize;
+use tonic::codec::{BufferSettings, Codec, DecodeBuf, Decoder};
+use tonic::codegen::http::uri::PathAndQuery;
 use trafficmesh_maps::{GridOptions, grid_map};
 use trafficmesh_service::stats::quantile;
 use trafficmesh_sim::LaneNetwork;
 use trafficmesh_sim::session::SessionConfig;
 
-use prost::Message;
-use prost::bytes::{Buf, Bytes};
-use tonic::codec::{BufferSettings, Codec, DecodeBuf, Decoder};
-use tonic::codegen::http::uri::PathAndQuery;
-
 use crate::catalogue::Scene;
-use crate::codec::{BUFFER_SIZE, WholeEncoder};
+use crate::codec::{WholeEncoder, whole_buffers};
 use crate::proto::common::{Aabb, Pose, PoseAtTime, Quat, Trajectory, Vec3};
 use crate::proto::traffic::traffic_service_client::TrafficServiceClient;
 use crate::proto::traffic::{
@@ -67,7 +66,6 @@ pub struct BenchRow {
 
 /// simulate() as a client that keeps the answer's bytes, so that a call's
 /// latency ends when the answer has arrived; it is decoded afterwards.
-#[derive(Default)]
 struct ArrivalCodec;
 
 impl Codec for ArrivalCodec {
@@ -97,7 +95,7 @@ impl Decoder for BytesDecoder {
     }
 
     fn buffer_settings(&self) -> BufferSettings {
-        BufferSettings::new(BUFFER_SIZE, BUFFER_SIZE)
+        whole_buffers()
     }
 }
 
@@ -173,7 +171,7 @@ async fn session(
     objects: Vec<ObjectTrajectory>,
     seconds: u64,
     phase: Duration,
-    started: Arc<tokio::sync::Barrier>,
+    all_started: Arc<tokio::sync::Barrier>,
 ) -> Result<Vec<(Duration, Duration)>> {
     let actors = objects.len();
     let channel = tonic::transport::Endpoint::from_shared(format!("http://{address}"))?
@@ -196,7 +194,7 @@ async fn session(
         })
         .await?;
     // Steady state: every session's calls begin once all have started.
-    started.wait().await;
+    all_started.wait().await;
     tokio::time::sleep(phase).await;
     let mut tick = tokio::time::interval(Duration::from_micros(STEP_US));
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Delay);
@@ -278,7 +276,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
     }));
     let mut rows = Vec::new();
     for (run, &n) in o.sessions.iter().enumerate() {
-        let started = Arc::new(tokio::sync::Barrier::new(n));
+        let all_started = Arc::new(tokio::sync::Barrier::new(n));
         let runs: Vec<_> = (0..n)
             .map(|k| {
                 tokio::spawn(session(
@@ -287,7 +285,7 @@ pub async fn run(o: &BenchOptions) -> Result<Vec<BenchRow>> {
                     objects.clone(),
                     o.seconds,
                     Duration::from_micros(STEP_US * k as u64 / n as u64),
-                    started.clone(),
+                    all_started.clone(),
                 ))
             })
             .collect();

@@ -41,7 +41,12 @@ where
 
 /// Frame buffers start this large, bytes: an answer of 200 actors with 2 s
 /// forecasts is about 180 kB, and growing the buffer copies it each time.
-pub const BUFFER_SIZE: usize = 256 << 10;
+const BUFFER_SIZE: usize = 256 << 10;
+
+/// The buffers of every whole-message encoder and decoder.
+pub fn whole_buffers() -> BufferSettings {
+    BufferSettings::new(BUFFER_SIZE, BUFFER_SIZE)
+}
 
 pub struct WholeEncoder<T>(PhantomData<T>);
 
@@ -61,7 +66,7 @@ impl<T: Message> Encoder for WholeEncoder<T> {
     }
 
     fn buffer_settings(&self) -> BufferSettings {
-        BufferSettings::new(BUFFER_SIZE, BUFFER_SIZE)
+        whole_buffers()
     }
 }
 
@@ -86,6 +91,6 @@ impl<U: Message + Default> Decoder for WholeDecoder<U> {
     }
 
     fn buffer_settings(&self) -> BufferSettings {
-        BufferSettings::new(BUFFER_SIZE, BUFFER_SIZE)
+        whole_buffers()
     }
 }

@@ -60,22 +60,20 @@ impl WholePose {
         2 + 2 + self.pose_len() + self.time_len()
     }
 
-    /// Writes those bytes to `out`; returns their count.
+    /// Writes those bytes to `out` in one pass, each length filled in once
+    /// what it counts is written; returns their count.
     fn write(&self, out: &mut [u8; MAX_POSE]) -> usize {
-        let pose_len = self.pose_len();
-        out[..4].copy_from_slice(&[
-            0x0A,
-            (2 + pose_len + self.time_len()) as u8,
-            0x0A,
-            pose_len as u8,
-        ]);
+        out[0] = 0x0A;
+        out[2] = 0x0A;
         let n = write_floats(out, 4, 0x0A, &self.position);
         let mut n = write_floats(out, n, 0x12, &self.rotation);
+        out[3] = (n - 4) as u8;
         if self.t_us != 0 {
             out[n] = 0x11;
             out[n + 1..n + 9].copy_from_slice(&self.t_us.to_le_bytes());
             n += 9;
         }
+        out[1] = (n - 2) as u8;
         n
     }
 }

@@ -56,7 +56,7 @@ const LOAD_MEMORY: f64 = 600.0;
 struct LaneLoads(HashMap<String, (f64, f64)>);
 
 impl LaneLoads {
-    /// The load on `lane` at departure time `t`.
+    /// The load on `lane` at departure time `t` (junction lanes carry none).
     fn at(&self, lane: &str, t: f64) -> f64 {
         match self.0.get(lane) {
             Some(&(weight, since)) if t > since => weight * (-(t - since) / LOAD_MEMORY).exp(),
@@ -71,15 +71,6 @@ impl LaneLoads {
             let weight = self.at(lane, t) + 1.0;
             let since = self.0.get(lane.as_str()).map_or(t, |&(_, s)| s.max(t));
             self.0.insert(lane.clone(), (weight, since));
-        }
-    }
-
-    /// The load of a normal lane; junction lanes carry none.
-    fn of(&self, lane: &str, t: f64) -> f64 {
-        if lane.starts_with(':') {
-            0.0
-        } else {
-            self.at(lane, t)
         }
     }
 }
@@ -166,7 +157,8 @@ impl<'m> Network<'m> {
             .filter(|start| self.allows(start, class))
             .filter_map(|start| {
                 let (cost, load, lanes) = self.extend(start, &ways, 1, &mut memo)?;
-                Some((rank(cost, load, draw(spread, start)), lanes))
+                let key = draw(spread, start);
+                Some((Rank { cost, load, key }, lanes))
             })
             .collect();
         starts.sort_by(|a, b| cheaper(a.0, b.0));
@@ -195,9 +187,8 @@ impl<'m> Network<'m> {
         memo: &mut HashMap<(&'a str, usize), Continuation>,
     ) -> Continuation {
         let (edges, class) = (ways.edges, ways.class);
-        let here = ways.loads.of(lane, ways.t);
         if k == edges.len() {
-            return Some((0.0, here, vec![lane.to_string()]));
+            return Some((0.0, ways.loads.at(lane, ways.t), vec![lane.to_string()]));
         }
         if let Some(known) = memo.get(&(lane, k)) {
             return known.clone();
@@ -241,8 +232,12 @@ impl<'m> Network<'m> {
                         };
                         let cost = cost + if i > 0 { self.shift_cost(n) } else { 0.0 };
                         // A change on the reached lane runs along it too.
-                        let load = load + if i > 0 { ways.loads.of(n, ways.t) } else { 0.0 };
-                        let candidate = rank(cost, load, draw(ways.spread, entry));
+                        let load = load + if i > 0 { ways.loads.at(n, ways.t) } else { 0.0 };
+                        let candidate = Rank {
+                            cost,
+                            load,
+                            key: draw(ways.spread, entry),
+                        };
                         if best
                             .as_ref()
                             .is_none_or(|b| cheaper(candidate, b.0) == std::cmp::Ordering::Less)
@@ -256,6 +251,7 @@ impl<'m> Network<'m> {
             }
             frontier = further;
         }
+        let here = ways.loads.at(lane, ways.t);
         let best = best.map(|(r, lanes)| (r.cost, here + r.load, lanes));
         memo.insert((lane, k), best.clone());
         best
@@ -281,10 +277,6 @@ struct Rank {
     cost: f64,
     load: f64,
     key: TieKey,
-}
-
-fn rank(cost: f64, load: f64, key: TieKey) -> Rank {
-    Rank { cost, load, key }
 }
 
 /// Orders two lane routes by cost; equal costs by load, equal loads by their

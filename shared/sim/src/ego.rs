@@ -49,13 +49,13 @@ impl Ego {
         )
     }
 
-    /// Radius of the circle around `center` that holds the box.
     /// How far any point of the box can be from `position()`: an upper
     /// bound without trigonometry, for skipping far bodies cheaply.
     pub fn reach(&self) -> f64 {
         (self.front_offset - self.length * 0.5).abs() + 0.5 * (self.length + self.width)
     }
 
+    /// Radius of the circle around `center` that holds the box.
     pub fn radius(&self) -> f64 {
         (self.length * 0.5).hypot(self.width * 0.5)
     }

@@ -92,15 +92,18 @@ pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
         let Some(mut lane) = v.prev_lane else {
             return net.lane(v.path[0]).line.point_at(s);
         };
+        s += net.lane(lane).length();
         for _ in 0..LANES_BEHIND {
-            let line = &net.lane(lane).line;
-            s += line.length();
-            match lane_before(net, lane) {
-                Some(before) if s < 0.0 => lane = before,
-                _ => return line.point_at(s),
+            if s >= 0.0 {
+                break;
             }
+            let Some(before) = lane_before(net, lane) else {
+                break;
+            };
+            lane = before;
+            s += net.lane(lane).length();
         }
-        return net.lane(lane).line.point_at(s + net.lane(lane).length());
+        return net.lane(lane).line.point_at(s);
     }
     for (k, &lane) in v.path.iter().enumerate() {
         let line = &net.lane(lane).line;
@@ -174,12 +177,15 @@ pub fn extend_path(
         &allowed
     };
     let widened: Vec<LaneId>;
-    let options = match other_turns(net, v, last, options) {
-        beside if turns_beside && options.len() == 1 && !beside.is_empty() => {
-            widened = options.iter().copied().chain(beside).collect();
-            &widened
-        }
-        _ => options,
+    let options = if turns_beside && options.len() == 1 {
+        widened = options
+            .iter()
+            .copied()
+            .chain(other_turns(net, v, last, options))
+            .collect();
+        &widened
+    } else {
+        options
     };
     match options.len() {
         0 => Err(DeadEnd),
