@@ -102,7 +102,7 @@ impl ChunkItems {
             items.push((target, body(true)));
         }
         if v.rear_s() < 0.0
-            && let Some(p) = v.prev_lane
+            && let Some(p) = v.behind.latest()
         {
             push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
         }

@@ -34,7 +34,7 @@ fn path_list(vehicles: &[Vehicle], i: usize) {
 /// The first `lanes` lanes of the path, and the lane the vehicle comes from.
 #[inline(always)]
 fn lanes_of(net: &LaneNetwork, v: &Vehicle, lanes: usize) {
-    for &id in v.path.iter().take(lanes).chain(&v.prev_lane) {
+    for id in v.path.iter().take(lanes).copied().chain(v.behind.latest()) {
         lane(net.lane(id));
     }
 }
@@ -62,7 +62,7 @@ pub fn vertices_and_conflicts_ahead(net: &LaneNetwork, vehicles: &[Vehicle], i: 
     lane.line.prefetch_at(v.s);
     conflicts_of(lane);
     if v.rear_s() < 0.0
-        && let Some(p) = v.prev_lane
+        && let Some(p) = v.behind.latest()
     {
         let behind = net.lane(p);
         behind.line.prefetch_at(behind.length() + v.rear_s());

@@ -18,6 +18,30 @@ pub struct Pose {
     pub yaw: f64,
 }
 
+/// The lanes a vehicle came by, the latest first: where its body may still
+/// be. Four reach back past the short road lane between two junction lanes
+/// that a bus can straddle.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct LanesBehind([Option<LaneId>; 4]);
+
+impl LanesBehind {
+    /// The lane just before the current one.
+    pub fn latest(&self) -> Option<LaneId> {
+        self.0[0]
+    }
+
+    /// The front has left `lane`.
+    pub fn push(&mut self, lane: LaneId) {
+        self.0.rotate_right(1);
+        self.0[0] = Some(lane);
+    }
+
+    /// Latest first.
+    pub fn iter(&self) -> impl Iterator<Item = LaneId> + '_ {
+        self.0.iter().map_while(|&l| l)
+    }
+}
+
 /// The zebra-crossing fields of the crosswalk document.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZebraState {
@@ -97,8 +121,8 @@ pub struct Vehicle {
     pub width: f64,
     /// Summed length of the lanes in `path`.
     pub path_length: f64,
-    /// The lane before path[0], where the rear may still be.
-    pub prev_lane: Option<LaneId>,
+    /// The lanes before path[0], where the rear may still be.
+    pub behind: LanesBehind,
     /// The lane beside path[0] that the route goes on from (a lane change it
     /// needs), kept up to date as the path changes.
     pub lane_change: Option<LaneId>,
@@ -162,7 +186,7 @@ impl Vehicle {
         }
     }
 
-    /// Arc length of the rear bumper on path[0]; negative while it is still on prev_lane.
+    /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.
     pub fn rear_s(&self) -> f64 {
         self.s - self.length
     }

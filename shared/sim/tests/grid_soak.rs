@@ -42,7 +42,7 @@ fn grid_5x5_thirty_minutes_no_overlap_and_no_endless_stop() {
                     .iter()
                     .map(|&l| w.network().lane(l).name.as_str())
                     .collect();
-                let prev = v.prev_lane.map(|l| w.network().lane(l).name.as_str());
+                let prev = v.behind.latest().map(|l| w.network().lane(l).name.as_str());
                 format!(
                     "#{id} {} on {path:?} (prev {prev:?}) s={:.1} v={:.1} {:?} {:?} front_gap={:.1}",
                     w.network().kinds[v.kind].name,

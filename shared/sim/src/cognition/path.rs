@@ -47,7 +47,7 @@ fn push_lane(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId) {
 fn pop_lane(net: &LaneNetwork, v: &mut Vehicle, len: f64) {
     v.s -= len;
     v.path_length -= len;
-    v.prev_lane = Some(v.path.remove(0));
+    v.behind.push(v.path.remove(0));
     v.first_junction_lane = match v.first_junction_lane {
         Some(f) if f.k > 0 => Some(FirstJunctionLane {
             k: f.k - 1,
@@ -77,27 +77,21 @@ pub fn first_junction_lane(net: &LaneNetwork, path: &[LaneId]) -> Option<FirstJu
     None
 }
 
-/// Lanes walked back through, at most, past the previous lane when the body
-/// reaches behind its start (a short junction lane and the lane before it).
-const LANES_BEHIND: usize = 3;
-
 /// Point (and height) at along-path offset `ds` from the front bumper; negative
-/// offsets reach back into the previous lane, and past a previous lane shorter
-/// than that into the lane that leads to it: extended straight instead, the
-/// body of a car that just left a tight turn would point back along the
-/// turn's first segment, across the lanes beside it.
+/// offsets reach back along the lanes the vehicle came by: extended straight
+/// past the previous lane instead, the body of a car that just left a tight
+/// turn would point back along the turn's first segment, across the lanes
+/// beside it.
 pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
     let mut s = v.s + ds;
     if s < 0.0 {
-        let Some(mut lane) = v.prev_lane else {
+        let mut behind = v.behind.iter();
+        let Some(mut lane) = behind.next() else {
             return net.lane(v.path[0]).line.point_at(s);
         };
         s += net.lane(lane).length();
-        for _ in 0..LANES_BEHIND {
-            if s >= 0.0 {
-                break;
-            }
-            let Some(before) = lane_before(net, lane) else {
+        while s < 0.0 {
+            let Some(before) = behind.next() else {
                 break;
             };
             lane = before;
@@ -113,21 +107,6 @@ pub fn point_on_path(net: &LaneNetwork, v: &Vehicle, ds: f64) -> (DVec2, f64) {
         s -= line.length();
     }
     unreachable!("a vehicle's path is never empty")
-}
-
-/// The lane that leads into `lane`: of several, the one ending nearest its
-/// start (the first listed among equals).
-fn lane_before(net: &LaneNetwork, lane: LaneId) -> Option<LaneId> {
-    let start = net.lane(lane).line.point(0);
-    let end = |p: LaneId| {
-        let line = &net.lane(p).line;
-        line.point(line.point_count() - 1).distance_squared(start)
-    };
-    net.lane(lane)
-        .prev
-        .iter()
-        .copied()
-        .min_by(|&a, &b| end(a).total_cmp(&end(b)))
 }
 
 /// The path cannot be extended: its last lane has no successor.

@@ -189,7 +189,7 @@ fn follow_lanes_of(
     if v.forced_through.is_some()
         && before.0 != v.path[0]
         && !net.lane(v.path[0]).intersection
-        && v.prev_lane.is_some_and(|p| net.lane(p).intersection)
+        && v.behind.latest().is_some_and(|p| net.lane(p).intersection)
     {
         v.forced_through = None;
     }

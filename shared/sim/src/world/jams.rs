@@ -11,7 +11,7 @@ use super::World;
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
 use crate::network::{LaneId, LaneNetwork};
-use crate::vehicle::{Pose, Vehicle};
+use crate::vehicle::{LanesBehind, Pose, Vehicle};
 
 /// Ticks between looks for jammed vehicles: a timeout is minutes long, and
 /// the look reads every vehicle.
@@ -160,7 +160,7 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, route_index: Optio
     v.s = v.length.min(v.path_length);
     v.speed = 0.0;
     v.acceleration = 0.0;
-    v.prev_lane = None;
+    v.behind = LanesBehind::default();
     v.forced_through = None;
     v.yield_phase = Default::default();
     v.dominating = None;

@@ -11,7 +11,7 @@ use crate::geometry::{box_corners, boxes_overlap};
 use crate::network::LaneId;
 use crate::rng::SimRng;
 use crate::spawn::SpawnOutcome;
-use crate::vehicle::{Pose, RouteProgress, TripStats, Vehicle, VehicleId, ZebraState};
+use crate::vehicle::{LanesBehind, Pose, RouteProgress, TripStats, Vehicle, VehicleId, ZebraState};
 
 /// Why the owner of the vehicles refused a spawn request.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -229,7 +229,7 @@ impl World {
             length: k.length,
             width: k.width,
             path: vec![lane],
-            prev_lane: None,
+            behind: LanesBehind::default(),
             path_length: self.net.lane(lane).length(),
             first_junction_lane: None,
             s,
