@@ -760,3 +760,73 @@ fn a_service_with_another_map_than_the_steppers_refuses_to_join() {
         }
     });
 }
+
+/// Red means stop on the generated 10 x 10 grid: an independent Python judge
+/// reads the map file, the vehicle batches and the light states from the bus
+/// over ten simulated minutes and finds no front bumper 0.5 m past a stop
+/// line more than 0.5 s into red; the stepper counts none either.
+#[test]
+fn no_vehicle_crosses_a_stop_line_on_red_on_the_grid() {
+    let Some(python) = trafficmesh_testkit::python_with("zenoh", "eclipse-zenoh==1.10.2") else {
+        return;
+    };
+    let maps = tempfile::tempdir().unwrap();
+    let grid = maps.path().join("grid10.map.json");
+    let made = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["gen-grid", "--size", "10", "--out"])
+        .arg(&grid)
+        .output()
+        .unwrap();
+    assert!(
+        made.status.success(),
+        "{}",
+        String::from_utf8_lossy(&made.stderr)
+    );
+    let cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
+        stepper: "speed = 4".into(),
+        spawner: "max_vehicles = 400".into(),
+        ..Cluster::spec("redgrid", &grid)
+    });
+    runtime().block_on(async {
+        let bus = cluster.client().await;
+        status(&bus, "lights").await;
+        status(&bus, "stepper").await;
+    });
+    let out = std::process::Command::new(python)
+        .arg(repo().join("tests/cluster/red_light_judge.py"))
+        .args([&cluster.endpoint, &cluster.name])
+        .arg(&grid)
+        .arg("600")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let figure = |name: &str| -> f64 {
+        stdout
+            .split(&format!("{name}="))
+            .nth(1)
+            .and_then(|s| s.split_whitespace().next())
+            .and_then(|s| s.parse().ok())
+            .unwrap_or_else(|| panic!("no {name} in: {stdout}"))
+    };
+    assert_eq!(figure("restarts"), 0.0, "the stepper restarted:\n{stdout}");
+    assert!(figure("seconds") >= 600.0, "judged too short: {stdout}");
+    assert!(figure("reds") >= 100.0, "too few red phases seen: {stdout}");
+    assert!(
+        figure("crossings") >= 500.0,
+        "too few stop-line crossings: {stdout}"
+    );
+    assert_eq!(figure("on_red"), 0.0, "crossed on red:\n{stdout}");
+    let counted = runtime().block_on(async {
+        let bus = cluster.client().await;
+        status(&bus, "stepper").await.details["red_light_crossings"].clone()
+    });
+    assert_eq!(
+        counted, 0,
+        "the stepper counted red-light crossings; judge: {stdout}"
+    );
+}

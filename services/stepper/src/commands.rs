@@ -168,7 +168,12 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
         Command::SpawnConfig(_) if inputs.in_step.spawner => {}
         Command::Light(state) => {
             world
-                .set_remote_light(&state.group, state.color, state.valid_until)
+                .set_remote_light(
+                    &state.group,
+                    state.color,
+                    state.valid_until,
+                    state.next_change,
+                )
                 .map_err(|e| e.to_string())?;
         }
         Command::LightsHeartbeat(beat) => world.extend_remote_lights(beat.valid_until),

@@ -36,6 +36,8 @@ pub struct StepperStatus {
     pub jam_resolutions: u64,
     /// Of those, the ones taken off the road.
     pub jam_removals: u64,
+    /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
+    pub red_light_crossings: u64,
     pub batches_dropped: u64,
     pub lights_stale: bool,
     pub crosswalks_stale: bool,

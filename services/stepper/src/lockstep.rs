@@ -90,7 +90,9 @@ pub fn apply(
             TickReport::Lights { changed, heartbeat } => {
                 inputs.in_step.lights = true;
                 for s in changed {
-                    if let Err(e) = world.set_remote_light(&s.group, s.color, s.valid_until) {
+                    if let Err(e) =
+                        world.set_remote_light(&s.group, s.color, s.valid_until, s.next_change)
+                    {
                         reject(e.to_string());
                     }
                 }

@@ -112,5 +112,6 @@ pub fn check_report(check: &MotionCheck) -> serde_json::Value {
         "turns": tally(&check.turns),
         "overlaps": tally(&check.overlaps),
         "speeding": tally(&check.speeding),
+        "red_lights": tally(&check.red_lights),
     })
 }

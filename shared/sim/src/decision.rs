@@ -50,12 +50,15 @@ impl StopCandidates {
     }
 }
 
-pub fn stop_candidates(v: &Vehicle, d: &StopDistances) -> StopCandidates {
+pub fn stop_candidates(v: &Vehicle, d: &StopDistances, pickup: Pickup) -> StopCandidates {
     let front_vehicle = v.distance_to_front - MIN_FRONT_VEHICLE_DISTANCE;
     let traffic_light = match (v.light_lane, v.passability) {
         (None, _) | (_, LightColor::Green) => f64::INFINITY,
-        // Yellow: commit when we could not stop in time, else stop.
-        (Some(_), LightColor::Yellow) if v.distance_to_light < d.sudden => f64::INFINITY,
+        (Some(_), LightColor::Yellow)
+            if commits_through_yellow(v.speed, v.distance_to_light, v.yellow_left, pickup, d) =>
+        {
+            f64::INFINITY
+        }
         (Some(_), _) => v.distance_to_light,
     };
     let right_of_way = if v.yield_phase.is_yielding() {
@@ -76,6 +79,44 @@ pub fn stop_candidates(v: &Vehicle, d: &StopDistances) -> StopCandidates {
     }
 }
 
+/// How a vehicle can speed up: at its acceleration, up to the speed limit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pickup {
+    pub acceleration: f64,
+    pub limit: f64,
+}
+
+impl Pickup {
+    /// Metres covered in `t` seconds from `speed`.
+    pub fn reach(&self, speed: f64, t: f64) -> f64 {
+        let t = t.max(0.0);
+        let a = self.acceleration.max(0.0);
+        let speeding_up = if a > 0.0 {
+            ((self.limit - speed) / a).clamp(0.0, t)
+        } else {
+            0.0
+        };
+        let top = speed + a * speeding_up;
+        speed * speeding_up + 0.5 * a * speeding_up * speeding_up + top * (t - speeding_up)
+    }
+}
+
+/// Yellow: go on when the vehicle could not stop in time (within the
+/// sudden-stop distance, the reference's rule) and reaches the line before
+/// red (`yellow_left` seconds), speeding up as it can; else stop. One too
+/// slow or too far to make it stops, so no commitment carries a vehicle
+/// across after red has begun, nor does one braking for the yellow change
+/// its mind once it is near.
+pub fn commits_through_yellow(
+    speed: f64,
+    distance: f64,
+    yellow_left: f64,
+    pickup: Pickup,
+    d: &StopDistances,
+) -> bool {
+    distance < d.sudden && distance <= pickup.reach(speed, yellow_left)
+}
+
 pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) -> SpeedMode {
     if distance_to_stop <= d.absolute {
         SpeedMode::AbsoluteStop
@@ -91,9 +132,34 @@ pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) ->
 }
 
 /// The speed mode, and the stop points it was chosen from (the realistic
-/// driver model brakes for them itself).
-pub fn decide(v: &Vehicle, c: &NpcVehicleConfig) -> (SpeedMode, StopCandidates) {
+/// driver model brakes for them itself); `limit`: the speed limit in force.
+pub fn decide(v: &Vehicle, c: &NpcVehicleConfig, limit: f64) -> (SpeedMode, StopCandidates) {
     let d = StopDistances::at(v.speed, c);
-    let stops = stop_candidates(v, &d);
+    let pickup = Pickup {
+        acceleration: c.acceleration,
+        limit,
+    };
+    let stops = stop_candidates(v, &d, pickup);
     (speed_mode(stops.nearest(), v.is_turning, &d), stops)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reach_speeds_up_to_the_limit_and_no_further() {
+        let pickup = Pickup {
+            acceleration: 2.0,
+            limit: 10.0,
+        };
+        // From standstill, 2 s at 2 m/s²: 4 m.
+        assert!((pickup.reach(0.0, 2.0) - 4.0).abs() < 1e-9);
+        // At the limit: the speed times the time.
+        assert!((pickup.reach(10.0, 3.0) - 30.0).abs() < 1e-9);
+        // From 6 m/s: 2 s to reach 10 m/s (16 m), then 1 s at 10 m/s.
+        assert!((pickup.reach(6.0, 3.0) - 26.0).abs() < 1e-9);
+        // A yellow that ended a hair ago (a remote state read a tick late).
+        assert_eq!(pickup.reach(6.0, -1e-11), 0.0);
+    }
 }

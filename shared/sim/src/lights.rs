@@ -8,6 +8,11 @@ pub struct LightState {
     pub color: LightColor,
     /// Simulation time of the next change (infinite when forced).
     pub next_change: f64,
+    /// Since when the group has shown this colour (simulation time).
+    pub since: f64,
+    /// When this colour is due to end: the program's next change, or the
+    /// one the lights service announced; infinite when nobody knows.
+    pub ends: f64,
 }
 
 /// Evaluates a fixed-time program: green from `offset`, then yellow, then red.
@@ -15,16 +20,22 @@ pub fn program_state(program: &LightProgram, t: f64) -> LightState {
     let cycle = program.cycle();
     let pos = (t - program.offset).rem_euclid(cycle);
     let start = t - pos;
-    let (color, end) = if pos < program.green {
-        (LightColor::Green, program.green)
+    let (color, begin, end) = if pos < program.green {
+        (LightColor::Green, 0.0, program.green)
     } else if pos < program.green + program.yellow {
-        (LightColor::Yellow, program.green + program.yellow)
+        (
+            LightColor::Yellow,
+            program.green,
+            program.green + program.yellow,
+        )
     } else {
-        (LightColor::Red, cycle)
+        (LightColor::Red, program.green + program.yellow, cycle)
     };
     LightState {
         color,
         next_change: start + end,
+        since: start + begin,
+        ends: start + end,
     }
 }
 
@@ -35,28 +46,37 @@ pub enum LightControl {
     Forced(LightColor),
     /// A colour received from the lights service, good until `valid_until`
     /// (simulation time); after that the group counts as red (fail-safe).
+    /// `ends`: when the service said the colour changes (infinite when it
+    /// did not say).
     Remote {
         color: LightColor,
         valid_until: f64,
+        ends: f64,
     },
 }
 
-fn evaluate(control: &LightControl, t: f64) -> LightState {
+/// The state `control` gives at `t`, after `before`: a colour that did not
+/// change keeps its start (a program knows its own).
+fn evaluate(control: &LightControl, t: f64, before: Option<LightState>) -> LightState {
+    let state = |color, next_change, ends| LightState {
+        color,
+        next_change,
+        since: match before {
+            Some(b) if b.color == color => b.since,
+            _ => t,
+        },
+        ends,
+    };
     match control {
         LightControl::Program(p) => program_state(p, t),
-        LightControl::Forced(color) => LightState {
-            color: *color,
-            next_change: f64::INFINITY,
-        },
-        LightControl::Remote { color, valid_until } if t <= *valid_until => LightState {
-            color: *color,
-            next_change: *valid_until,
-        },
+        LightControl::Forced(color) => state(*color, f64::INFINITY, f64::INFINITY),
+        LightControl::Remote {
+            color,
+            valid_until,
+            ends,
+        } if t <= *valid_until => state(*color, *valid_until, *ends),
         // Fail-safe: a state nobody vouches for any more is red.
-        LightControl::Remote { .. } => LightState {
-            color: LightColor::Red,
-            next_change: f64::INFINITY,
-        },
+        LightControl::Remote { .. } => state(LightColor::Red, f64::INFINITY, f64::INFINITY),
     }
 }
 
@@ -70,16 +90,8 @@ pub struct Lights {
 impl Lights {
     pub fn new(programs: impl IntoIterator<Item = LightProgram>) -> Self {
         let controls: Vec<LightControl> = programs.into_iter().map(LightControl::Program).collect();
-        let states = vec![
-            LightState {
-                color: LightColor::Green,
-                next_change: 0.0
-            };
-            controls.len()
-        ];
-        let mut lights = Lights { controls, states };
-        lights.update(0.0);
-        lights
+        let states = controls.iter().map(|c| evaluate(c, 0.0, None)).collect();
+        Lights { controls, states }
     }
 
     /// Refreshes the groups whose state has run out by `t` (time only moves
@@ -87,7 +99,7 @@ impl Lights {
     pub fn update(&mut self, t: f64) {
         for (state, control) in self.states.iter_mut().zip(&self.controls) {
             if t >= state.next_change {
-                *state = evaluate(control, t);
+                *state = evaluate(control, t, Some(*state));
             }
         }
     }
@@ -95,7 +107,7 @@ impl Lights {
     /// Changes one group's control and refreshes its state at `t`.
     pub fn set_control(&mut self, group: usize, control: LightControl, t: f64) {
         self.controls[group] = control;
-        self.states[group] = evaluate(&control, t);
+        self.states[group] = evaluate(&control, t, Some(self.states[group]));
     }
 
     pub fn control(&self, group: usize) -> LightControl {

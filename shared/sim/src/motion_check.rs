@@ -1,7 +1,7 @@
 //! Checks of a run's motion, tick by tick, as a perception stack or a viewer
 //! reading the vehicle batch would make them: poses that jump further than
 //! the speed allows, headings that turn faster than a car can, bodies that
-//! overlap, speeds over the limit in force. Read-only: it looks at the world
+//! overlap, speeds over the limit in force, stop lines crossed on red. Read-only: it looks at the world
 //! after each tick and changes nothing.
 
 use std::collections::HashMap;
@@ -79,6 +79,8 @@ pub struct MotionCheck {
     pub overlaps: Tally,
     /// Speeds over the lane's limit (or the fixed limit in force).
     pub speeding: Tally,
+    /// Stop lines crossed on red (value: seconds into red; bound: the grace).
+    pub red_lights: Tally,
     last: HashMap<VehicleId, (DVec2, f64, f64)>,
 }
 
@@ -124,6 +126,16 @@ impl MotionCheck {
             now.insert(v.id, (at, v.pose.yaw, v.speed));
         }
         self.last = now;
+        for c in world.red_light_crossings_last_tick() {
+            self.red_lights.add(Finding {
+                time,
+                vehicle: c.vehicle,
+                other: None,
+                lane: net.lane(c.lane).name.clone(),
+                value: c.into_red,
+                bound: crate::world::RED_GRACE,
+            });
+        }
         for (a, b) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
             let (va, vb) = (&world.vehicles()[a], &world.vehicles()[b]);
             self.overlaps.add(finding(va, Some(vb.id), 1.0, 0.0));

@@ -83,7 +83,8 @@ fn remote_lights_are_red_until_vouched_for_and_red_again_when_the_vouch_expires(
     assert!(vehicle(&w, id).speed < 0.05);
 
     let until = w.time() + 5.0;
-    w.set_remote_light("L", LightColor::Green, until).unwrap();
+    w.set_remote_light("L", LightColor::Green, until, None)
+        .unwrap();
     assert!(!w.lights_stale());
     assert!(
         run_until(&mut w, 4.0, |w| vehicle(w, id).speed > 1.0),

@@ -120,6 +120,8 @@ struct Summary {
     jam_resolutions: u64,
     /// Of those, the ones taken off the road.
     jam_removals: u64,
+    /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
+    red_light_crossings: u64,
     branch_decisions: u64,
     trajectory_hash: String,
     /// With --check: what the motion checks found.
@@ -308,6 +310,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         stuck_vehicles: world.stuck_vehicles(),
         jam_resolutions: waits.jam_resolutions,
         jam_removals: waits.jam_removals,
+        red_light_crossings: world.red_light_crossings(),
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
         check: check.as_ref().map(output::check_report),

@@ -1,9 +1,12 @@
-//! Traffic-light check: the first signalised stop line ahead and what it shows.
+//! Traffic-light check: the signalised stop line ahead that the vehicle must
+//! stop at, or else the first one, and what it shows.
 
 use trafficmesh_model::LightColor;
 
 use super::Snapshot;
 use super::path::lanes_ahead;
+use crate::control::speed_limit;
+use crate::decision::{Pickup, StopDistances, commits_through_yellow};
 use crate::network::LaneId;
 use crate::vehicle::Vehicle;
 
@@ -12,27 +15,76 @@ pub struct LightView {
     /// Along-path metres from the front bumper to the stop line.
     pub distance: f64,
     pub color: LightColor,
+    /// Seconds until a yellow turns red; infinite for other colours.
+    pub yellow_left: f64,
 }
 
-/// The first lane of the path whose signalised stop line is still ahead; a line
-/// already passed no longer applies (the reference's "value < 0 becomes +inf").
+impl LightView {
+    const NONE: LightView = LightView {
+        lane: None,
+        distance: f64::INFINITY,
+        color: LightColor::Green,
+        yellow_left: f64::INFINITY,
+    };
+
+    /// Must the vehicle stop at this line: red, or a yellow it is not
+    /// committed to?
+    fn binds(&self, speed: f64, pickup: Pickup, stops: &StopDistances) -> bool {
+        match self.color {
+            LightColor::Green => false,
+            LightColor::Yellow => {
+                !commits_through_yellow(speed, self.distance, self.yellow_left, pickup, stops)
+            }
+            _ => true,
+        }
+    }
+}
+
+/// A front this far past a stop line has crossed it, metres; less is a stop
+/// that overshot (for the car ahead, a full exit, or a light seen late).
+pub const PAST_LINE: f64 = 0.5;
+/// Slower than this a vehicle counts as standing, m/s.
+const STANDING: f64 = 1.0;
+
+/// Every signalised stop line of the path still ahead is obeyed: the first
+/// one that makes the vehicle stop, else the first one. (A line already
+/// passed no longer applies, the reference's "value < 0 becomes +inf",
+/// except to a vehicle standing on it: at red it stays, however it came to
+/// stand there. Two lines close together, or at one point for two signal
+/// groups, are both looked at, not only the nearer.)
 pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
+    let stops = StopDistances::at(v.speed, snap.config);
+    let pickup = Pickup {
+        acceleration: snap.config.acceleration,
+        limit: speed_limit(snap.net, v, snap.config),
+    };
+    let mut first = None;
     for (_, lane, offset) in lanes_ahead(snap.net, v) {
         let l = snap.net.lane(lane);
         let Some(group) = l.light else { continue };
         let distance = offset + l.light_stop_s();
+        let state = snap.lights.state(group as usize);
         if distance < 0.0 {
-            continue;
+            let standing_on_it = distance > -PAST_LINE && v.speed < STANDING;
+            if !(standing_on_it && state.color == LightColor::Red) {
+                continue;
+            }
         }
-        return LightView {
+        let distance = distance.max(0.0);
+        let view = LightView {
             lane: Some(lane),
             distance,
-            color: snap.lights.state(group as usize).color,
+            color: state.color,
+            yellow_left: match state.color {
+                // A remote state may end a hair before the tick it is read in.
+                LightColor::Yellow => (state.ends - snap.time).max(0.0),
+                _ => f64::INFINITY,
+            },
         };
+        if view.binds(v.speed, pickup, &stops) {
+            return view;
+        }
+        first.get_or_insert(view);
     }
-    LightView {
-        lane: None,
-        distance: f64::INFINITY,
-        color: LightColor::Green,
-    }
+    first.unwrap_or(LightView::NONE)
 }

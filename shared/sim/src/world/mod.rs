@@ -7,6 +7,7 @@ mod follow;
 mod jams;
 mod motion;
 mod phases;
+mod red_lights;
 mod regroup;
 mod spawning;
 mod step;
@@ -34,6 +35,7 @@ pub use crate::parallel::MIN_VEHICLES_PER_TASK;
 pub use jams::{STUCK_AFTER, WaitStats};
 #[cfg(feature = "bench")]
 pub use phases::{Phase, PhaseTimes};
+pub use red_lights::{RED_GRACE, RedLightCrossing};
 pub use spawning::{QueuedSpawn, SpawnRejection};
 
 /// SUMO's default `time-to-teleport`, seconds.
@@ -139,6 +141,9 @@ pub struct World {
     events: Vec<SimEvent>,
     phase_times: phases::PhaseTimes,
     wait_stats: jams::WaitStats,
+    /// This tick's red-light crossings, and their count over the run.
+    red_crossings: Vec<RedLightCrossing>,
+    red_crossing_count: u64,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
 }
@@ -179,6 +184,8 @@ impl World {
             events: Vec::new(),
             phase_times: phases::PhaseTimes::default(),
             wait_stats: jams::WaitStats::default(),
+            red_crossings: Vec::new(),
+            red_crossing_count: 0,
             walkers: None,
         }
     }
@@ -235,6 +242,16 @@ impl World {
     }
     pub fn lights(&self) -> &Lights {
         &self.lights
+    }
+
+    /// Stop lines crossed on red in the last tick (see [`RedLightCrossing`]).
+    pub fn red_light_crossings_last_tick(&self) -> &[RedLightCrossing] {
+        &self.red_crossings
+    }
+
+    /// Stop lines crossed on red over the run so far.
+    pub fn red_light_crossings(&self) -> u64 {
+        self.red_crossing_count
     }
     pub fn occupancy(&self) -> &Occupancy {
         &self.occupancy
@@ -314,14 +331,24 @@ impl World {
     }
 
     /// Light states from the lights service: each group's colour, good until
-    /// `valid_until` (simulation time), red after that.
+    /// `valid_until` (simulation time), red after that, and when the service
+    /// expects it to change (`None`: forced, or not known).
     pub fn set_remote_light(
         &mut self,
         group: &str,
         color: trafficmesh_model::LightColor,
         valid_until: f64,
+        next_change: Option<f64>,
     ) -> Result<(), WorldError> {
-        self.set_light(group, LightControl::Remote { color, valid_until })
+        let ends = next_change.unwrap_or(f64::INFINITY);
+        self.set_light(
+            group,
+            LightControl::Remote {
+                color,
+                valid_until,
+                ends,
+            },
+        )
     }
 
     /// Hands every light group to a remote controller (the lights service):
@@ -331,6 +358,7 @@ impl World {
             let red = LightControl::Remote {
                 color: trafficmesh_model::LightColor::Red,
                 valid_until: f64::NEG_INFINITY,
+                ends: f64::INFINITY,
             };
             self.lights.set_control(g, red, self.time);
         }
@@ -348,9 +376,13 @@ impl World {
     /// lights service's heartbeat).
     pub fn extend_remote_lights(&mut self, valid_until: f64) {
         for g in 0..self.lights.len() {
-            if let LightControl::Remote { color, .. } = self.lights.control(g) {
-                self.lights
-                    .set_control(g, LightControl::Remote { color, valid_until }, self.time);
+            if let LightControl::Remote { color, ends, .. } = self.lights.control(g) {
+                let control = LightControl::Remote {
+                    color,
+                    valid_until,
+                    ends,
+                };
+                self.lights.set_control(g, control, self.time);
             }
         }
     }

@@ -7,10 +7,12 @@ use trafficmesh_model::NpcVehicleConfig;
 
 use super::World;
 use super::follow::{Follow, Followed};
+use super::red_lights::{RedLightCrossing, crossed_on_red};
 use crate::cognition::Perception;
 use crate::cognition::right_of_way::RowInfo;
 use crate::control::{speed_limit, step_speed, update_pose};
 use crate::decision::decide;
+use crate::lights::Lights;
 use crate::lookahead;
 use crate::network::LaneNetwork;
 use crate::trajectory::pose_digest;
@@ -22,14 +24,15 @@ impl World {
     /// Moves every vehicle by its perception and returns the sum of the
     /// trajectory digests of those that stay. `leaving` (ascending) are the
     /// vehicles that leave at the end of this tick: they do not move. With
-    /// `follow_ahead`, also does the next tick's lane following.
+    /// `follow_ahead`, also does the next tick's lane following. Notes the
+    /// tick's red-light crossings.
     pub(super) fn move_and_follow(
         &mut self,
         perceptions: &[Perception],
         leaving: &[usize],
         follow_ahead: bool,
     ) -> u64 {
-        let dt = self.config.dt;
+        let (dt, time, lights) = (self.config.dt, self.time, &self.lights);
         // The motion pass also does the next tick's lane following while each
         // vehicle is at hand, for the vehicles that stay: at the index each
         // will have once those leaving at the end of this tick are gone.
@@ -59,7 +62,7 @@ impl World {
         };
         // In chunks, so that each loop can look at the vehicles ahead of it.
         // Takes the trajectory digests of the vehicles that stay on the way.
-        let chunks: Vec<(u64, Followed)> = self
+        let chunks: Vec<(u64, Followed, Vec<RedLightCrossing>)> = self
             .vehicles
             .par_chunks_mut(MIN_VEHICLES_PER_TASK)
             .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
@@ -71,12 +74,15 @@ impl World {
                     let (net, config) = (follow.net, follow.motion);
                     let mut digest_sum = 0u64;
                     let mut followed = Followed::default();
+                    let mut on_red = Vec::new();
                     let mut stayed = 0;
                     for (k, p) in perceptions.iter().enumerate() {
                         lookahead::paths_ahead(net, vehicles, k);
                         lookahead::vertices_and_conflicts_ahead(net, vehicles, k);
                         let v = &mut vehicles[k];
-                        move_vehicle(net, config, dt, v, p);
+                        if let Some(c) = move_vehicle(net, config, (dt, time, lights), v, p) {
+                            on_red.push(c);
+                        }
                         if v.should_despawn {
                             continue;
                         }
@@ -88,35 +94,47 @@ impl World {
                         stayed += 1;
                     }
                     debug_assert_eq!(stayed, rows.len(), "the leaving list matches the flags");
-                    (digest_sum, followed)
+                    (digest_sum, followed, on_red)
                 },
             )
             .collect();
         let digest_sum = chunks.iter().fold(0u64, |sum, c| sum.wrapping_add(c.0));
-        let followed: Followed = chunks.into_iter().map(|(_, chunk)| chunk).collect();
+        self.red_crossings.clear();
+        let followed: Followed = chunks
+            .into_iter()
+            .map(|(_, chunk, on_red)| {
+                self.red_crossings.extend(on_red);
+                chunk
+            })
+            .collect();
+        self.red_crossing_count += self.red_crossings.len() as u64;
         self.row.truncate(staying);
         self.prefollowed = follow_ahead.then_some((staying, followed));
         digest_sum
     }
 }
 
-/// Decision, Control and Visualization of one vehicle, after its perception.
+/// Decision, Control and Visualization of one vehicle, after its perception;
+/// a stop line it crossed on red, if it did.
 fn move_vehicle(
     net: &LaneNetwork,
     config: &NpcVehicleConfig,
-    dt: f64,
+    (dt, time, lights): (f64, f64, &Lights),
     v: &mut Vehicle,
     p: &Perception,
-) {
+) -> Option<RedLightCrossing> {
     p.apply(v);
     if v.should_despawn {
-        return;
+        return None;
     }
-    let (mode, stops) = decide(v, config);
-    v.speed_mode = mode;
-    // One lookup of the lane's limit for the speed step and the trip's time loss.
+    let s_before = v.s;
+    // One lookup of the lane's limit for the decision, the speed step and the
+    // trip's time loss.
     let limit = speed_limit(net, v, config);
+    let (mode, stops) = decide(v, config, limit);
+    v.speed_mode = mode;
     step_speed(net, v, config, &stops, limit, dt);
     update_pose(net, v);
     update_trip(v, dt, limit);
+    crossed_on_red(net, lights, time, v, s_before)
 }

@@ -174,6 +174,7 @@ impl World {
             vehicles: &self.vehicles,
             index: &self.index,
             lights: &self.lights,
+            time: self.time,
             occupancy: &self.occupancy,
             ego: self.ego.as_ref(),
             foreign: &self.foreign,
