@@ -369,7 +369,7 @@ fn sim_check_finds_continuous_motion_on_native_maps() {
         let check = &v["check"];
         assert_eq!(check["ticks"], v["ticks"], "every tick is checked: {check}");
         assert!(check["vehicle_steps"].as_u64().unwrap() > 10_000, "{check}");
-        for what in ["jumps", "turns", "overlaps", "speeding"] {
+        for what in ["jumps", "turns", "overlaps", "speeding", "red_lights"] {
             assert_eq!(
                 check[what]["count"],
                 0,
@@ -383,6 +383,41 @@ fn sim_check_finds_continuous_motion_on_native_maps() {
         &["--duration", "10"],
     );
     assert!(plain.get("check").is_none(), "only with --check");
+}
+
+/// On every real map of `../shared/maps`, ten simulated minutes of random
+/// traffic at the lanes' own limits: nobody drives faster than the lane it is
+/// on allows (vehicles slow before a slower lane, not on it), and nobody
+/// crosses a stop line on red.
+#[test]
+fn sim_check_finds_no_speeding_and_no_red_light_crossings_on_real_maps() {
+    for (file, vehicles) in [
+        ("cross.net.xml", "50"),
+        ("bologna_acosta/acosta_buslanes.net.xml", "400"),
+        ("autoware_intersection_lanelet2_map.osm", "60"),
+        ("mapping_example.osm", "150"),
+    ] {
+        let Some(map) = support::shared_map(file) else {
+            return;
+        };
+        let v = sim_json(
+            &map,
+            &["--duration", "600", "--max-vehicles", vehicles, "--check"],
+        );
+        let check = &v["check"];
+        assert_eq!(
+            v["vehicle_config"]["speedLimitSource"], "LaneletSpeedLimit",
+            "{file}"
+        );
+        assert!(
+            check["vehicle_steps"].as_u64().unwrap() > 10_000,
+            "{file}: {check}"
+        );
+        for what in ["speeding", "red_lights"] {
+            assert_eq!(check[what]["count"], 0, "{what} on {file}: {}", check[what]);
+        }
+        assert_eq!(v["red_light_crossings"], 0, "{file}");
+    }
 }
 
 /// The README stays the front door: short, opening with the command that

@@ -62,42 +62,54 @@ pub fn step_speed(
     speed_limit: f64,
     dt: f64,
 ) {
-    let new_speed = match driver_model(net, v, c) {
+    let model = driver_model(net, v, c);
+    // With every lane's own limit in force, the lower limits ahead.
+    let ahead = (c.speed_limit_source == SpeedLimitSource::LaneletSpeedLimit).then(|| {
+        let decel = match model {
+            DriverModel::Awsim => c.deceleration,
+            DriverModel::Realistic(idm) => idm.decel,
+        };
+        LimitsAhead::of(net, v, speed_limit, decel, dt)
+    });
+    let new_speed = match model {
         DriverModel::Awsim => {
             let (target, rate) = speed_target(v.speed_mode, speed_limit, c);
             move_towards(v.speed, target, rate * dt).max(0.0)
         }
-        DriverModel::Realistic(idm) => realistic_speed(net, v, c, &idm, stops, speed_limit, dt),
+        DriverModel::Realistic(idm) => {
+            let desired = ahead.map_or(speed_limit, |a| a.now);
+            realistic_speed(v, c, &idm, stops, desired, dt)
+        }
     };
+    // Never braking harder than the absolute deceleration for it (a lane
+    // just added to the path may ask for more).
+    let new_speed = ahead.map_or(new_speed, |a| {
+        new_speed.min(a.after_tick.max(v.speed - c.absolute_deceleration * dt))
+    });
     v.acceleration = (new_speed - v.speed) / dt;
     v.speed = new_speed;
     v.s += v.speed * dt;
     v.trip.distance += v.speed * dt;
 }
 
-/// The IDM's next speed: the lower acceleration of following the body ahead
-/// and stopping at the nearest stop line (light, yield point, zebra) that the
-/// reference's rules say to stop at, braking no harder than the absolute
-/// deceleration.
+/// The IDM's next speed toward `desired`: the lower acceleration of
+/// following the body ahead and stopping at the nearest stop line (light,
+/// yield point, zebra) that the reference's rules say to stop at, braking no
+/// harder than the absolute deceleration.
 fn realistic_speed(
-    net: &LaneNetwork,
     v: &Vehicle,
     c: &NpcVehicleConfig,
     idm: &IdmParams,
     stops: &StopCandidates,
-    speed_limit: f64,
+    desired: f64,
     dt: f64,
 ) -> f64 {
-    let mut desired = speed_limit.min(idm.max_speed);
-    // With every lane's own limit in force the map gives the turn speeds
-    // (netconvert's on SUMO junctions, the importer's on Lanelet2 ones), as
-    // SUMO takes them; one speed for every lane knows no turns.
-    match c.speed_limit_source {
-        SpeedLimitSource::FixedSpeedLimit if v.is_turning => desired = desired.min(TURN_SPEED),
-        SpeedLimitSource::FixedSpeedLimit => {}
-        SpeedLimitSource::LaneletSpeedLimit => {
-            desired = limit_ahead(net, v, idm.decel, desired);
-        }
+    let mut desired = desired.min(idm.max_speed);
+    // One speed for every lane knows no turns; with every lane's own limit
+    // in force the map gives the turn speeds (netconvert's on SUMO junctions,
+    // the importer's on Lanelet2 ones), as SUMO takes them.
+    if c.speed_limit_source == SpeedLimitSource::FixedSpeedLimit && v.is_turning {
+        desired = desired.min(TURN_SPEED);
     }
     let follow =
         crate::idm::acceleration(idm, v.speed, desired, v.distance_to_front, v.front_speed);
@@ -114,30 +126,49 @@ fn realistic_speed(
     (v.speed + a * dt).max(0.0)
 }
 
+/// With every lane's own limit in force: the highest speeds from which each
+/// lower limit on the path ahead (within the look-ahead) is met, braking at
+/// a given deceleration, where its lane begins. Drivers slow for a turn
+/// before they reach it, as SUMO's do, instead of braking hard once on it.
+#[derive(Clone, Copy, Debug)]
+struct LimitsAhead {
+    /// From where the vehicle is: the realistic model's desired speed.
+    now: f64,
+    /// From where it will be after the tick: a hard bound on the speed it
+    /// ends the tick with, so that no vehicle enters a lane faster than the
+    /// lane allows (the IDM's gentle approach to its desired speed alone
+    /// does not ensure it).
+    after_tick: f64,
+}
+
+impl LimitsAhead {
+    fn of(net: &LaneNetwork, v: &Vehicle, speed_limit: f64, decel: f64, dt: f64) -> Self {
+        let mut limits = LimitsAhead {
+            now: speed_limit,
+            after_tick: speed_limit,
+        };
+        let step = v.speed * dt;
+        let mut distance = net.lane(v.path[0]).length() - v.s;
+        for &lane in &v.path[1..] {
+            if distance > LIMIT_LOOKAHEAD {
+                break;
+            }
+            let l = net.lane(lane);
+            let limit = l.speed_limit;
+            // A limit at or above the speeds allowed so far cannot lower them.
+            if limit < limits.now {
+                let allowed = |d: f64| (limit * limit + 2.0 * decel * d.max(0.0)).sqrt();
+                limits.now = limits.now.min(allowed(distance));
+                limits.after_tick = limits.after_tick.min(allowed(distance - step));
+            }
+            distance += l.length();
+        }
+        limits
+    }
+}
+
 /// How far ahead a lower lane limit is slowed for, metres.
 const LIMIT_LOOKAHEAD: f64 = 100.0;
-
-/// `desired`, lowered to the highest speed from which every lane limit on
-/// the path ahead (within the look-ahead) is met braking at `decel` before
-/// that lane begins: drivers slow for a turn before they reach it, as SUMO's
-/// do, instead of braking hard once on it.
-fn limit_ahead(net: &LaneNetwork, v: &Vehicle, decel: f64, desired: f64) -> f64 {
-    let mut allowed = desired;
-    let mut distance = net.lane(v.path[0]).length() - v.s;
-    for &lane in &v.path[1..] {
-        if distance > LIMIT_LOOKAHEAD {
-            break;
-        }
-        let l = net.lane(lane);
-        // A limit at or above the speed allowed so far cannot lower it.
-        if l.speed_limit < allowed {
-            let limit = l.speed_limit;
-            allowed = allowed.min((limit * limit + 2.0 * decel * distance.max(0.0)).sqrt());
-        }
-        distance += l.length();
-    }
-    allowed
-}
 
 /// Recomputes pose, front and back points from the arc position. Both bumpers
 /// sit on the path and the body is the chord between them, so a long vehicle

@@ -21,24 +21,34 @@ pub struct Pose {
 /// The lanes a vehicle came by, the latest first: where its body may still
 /// be. Four reach back past the short road lane between two junction lanes
 /// that a bus can straddle.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct LanesBehind([Option<LaneId>; 4]);
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LanesBehind([LaneId; 4]);
 
 impl LanesBehind {
+    /// Marks the places not yet filled (half the size of `Option`s: the
+    /// vehicle list is moved about every tick).
+    const NONE: LaneId = LaneId::MAX;
+
     /// The lane just before the current one.
     pub fn latest(&self) -> Option<LaneId> {
-        self.0[0]
+        self.iter().next()
     }
 
     /// The front has left `lane`.
     pub fn push(&mut self, lane: LaneId) {
         self.0.rotate_right(1);
-        self.0[0] = Some(lane);
+        self.0[0] = lane;
     }
 
     /// Latest first.
     pub fn iter(&self) -> impl Iterator<Item = LaneId> + '_ {
-        self.0.iter().map_while(|&l| l)
+        self.0.iter().copied().take_while(|&l| l != Self::NONE)
+    }
+}
+
+impl Default for LanesBehind {
+    fn default() -> Self {
+        LanesBehind([Self::NONE; 4])
     }
 }
 

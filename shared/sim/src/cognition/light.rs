@@ -29,11 +29,16 @@ impl LightView {
 
     /// Must the vehicle stop at this line: red, or a yellow it is not
     /// committed to?
-    fn binds(&self, speed: f64, pickup: Pickup, stops: &StopDistances) -> bool {
+    fn binds(&self, snap: &Snapshot, v: &Vehicle) -> bool {
         match self.color {
             LightColor::Green => false,
             LightColor::Yellow => {
-                !commits_through_yellow(speed, self.distance, self.yellow_left, pickup, stops)
+                let stops = StopDistances::at(v.speed, snap.config);
+                let pickup = Pickup {
+                    acceleration: snap.config.acceleration,
+                    limit: speed_limit(snap.net, v, snap.config),
+                };
+                !commits_through_yellow(v.speed, self.distance, self.yellow_left, pickup, &stops)
             }
             _ => true,
         }
@@ -53,11 +58,6 @@ const STANDING: f64 = 1.0;
 /// stand there. Two lines close together, or at one point for two signal
 /// groups, are both looked at, not only the nearer.)
 pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
-    let stops = StopDistances::at(v.speed, snap.config);
-    let pickup = Pickup {
-        acceleration: snap.config.acceleration,
-        limit: speed_limit(snap.net, v, snap.config),
-    };
     let mut first = None;
     for (_, lane, offset) in lanes_ahead(snap.net, v) {
         let l = snap.net.lane(lane);
@@ -81,7 +81,7 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
                 _ => f64::INFINITY,
             },
         };
-        if view.binds(v.speed, pickup, &stops) {
+        if view.binds(snap, v) {
             return view;
         }
         first.get_or_insert(view);

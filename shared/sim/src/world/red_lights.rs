@@ -37,8 +37,9 @@ pub(super) fn crossed_on_red(
     s_before: f64,
 ) -> Option<RedLightCrossing> {
     // Cognition saw no stop line ahead, nor did it last tick (the line at
-    // the end of the lane just left): none to cross.
-    let behind = v.behind.latest();
+    // the end of the lane just left, whose mark lies at most PAST_LINE into
+    // this one): none to cross.
+    let behind = v.behind.latest().filter(|_| s_before < PAST_LINE);
     if v.light_lane.is_none() && behind.is_none_or(|b| net.lane(b).light.is_none()) {
         return None;
     }
