@@ -512,20 +512,14 @@ fn python_clients_subscribe_and_act_as_an_external_simulator() {
         status(&bus, "spawner").await;
         status(&bus, "lights").await;
     });
-    let script = repo().join("tests/cluster/external_simulator.py");
-    let out = std::process::Command::new(python)
-        .arg(script)
-        .args([&cluster.endpoint, &cluster.name])
-        .arg(four_way())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success(),
-        "python client failed:\n{stdout}\n{stderr}"
-    );
-    assert!(stdout.contains("OK"), "{stdout}\n{stderr}");
+    let map = four_way();
+    let args = [
+        cluster.endpoint.as_str(),
+        &cluster.name,
+        &map.to_string_lossy(),
+    ];
+    let stdout = python_client(&python, "external_simulator.py", &args);
+    assert!(stdout.contains("OK"), "{stdout}");
 }
 
 /// `trafficmesh up` starts the traffic service on the cluster's map: a
@@ -613,25 +607,13 @@ fn late_joiners_see_every_light_and_crosswalk_at_once() {
     let Some(python) = trafficmesh_testkit::python_with("zenoh", "eclipse-zenoh==1.10.2") else {
         return;
     };
-    let out = std::process::Command::new(python)
-        .arg(repo().join("tests/cluster/late_joiner.py"))
-        .args([&cluster.endpoint, &cluster.name])
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
+    let stdout = python_client(
+        &python,
+        "late_joiner.py",
+        &[&cluster.endpoint, &cluster.name],
     );
     assert!(stdout.contains("lights=2 crosswalks=4"), "{stdout}");
-    let seconds: f64 = stdout
-        .split("seconds=")
-        .nth(1)
-        .and_then(|s| s.split_whitespace().next())
-        .unwrap()
-        .parse()
-        .unwrap();
+    let seconds = figure(&stdout, "seconds");
     assert!(seconds < 1.0, "the states took {seconds} s: {stdout}");
 }
 
@@ -792,27 +774,14 @@ fn no_vehicle_crosses_a_stop_line_on_red_on_the_grid() {
         status(&bus, "lights").await;
         status(&bus, "stepper").await;
     });
-    let out = std::process::Command::new(python)
-        .arg(repo().join("tests/cluster/red_light_judge.py"))
-        .args([&cluster.endpoint, &cluster.name])
-        .arg(&grid)
-        .arg("600")
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "{stdout}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let figure = |name: &str| -> f64 {
-        stdout
-            .split(&format!("{name}="))
-            .nth(1)
-            .and_then(|s| s.split_whitespace().next())
-            .and_then(|s| s.parse().ok())
-            .unwrap_or_else(|| panic!("no {name} in: {stdout}"))
-    };
+    let args = [
+        cluster.endpoint.as_str(),
+        &cluster.name,
+        &grid.to_string_lossy(),
+        "600",
+    ];
+    let stdout = python_client(&python, "red_light_judge.py", &args);
+    let figure = |name: &str| figure(&stdout, name);
     assert_eq!(figure("restarts"), 0.0, "the stepper restarted:\n{stdout}");
     assert!(figure("seconds") >= 600.0, "judged too short: {stdout}");
     assert!(figure("reds") >= 100.0, "too few red phases seen: {stdout}");

@@ -294,3 +294,30 @@ pub fn runtime() -> tokio::runtime::Runtime {
         .build()
         .unwrap()
 }
+
+/// Runs the Python client `tests/cluster/<script>` with `args`, as a user's
+/// client would run against the cluster; its standard output, once it exits
+/// successfully.
+pub fn python_client<S: AsRef<std::ffi::OsStr>>(python: &str, script: &str, args: &[S]) -> String {
+    let out = std::process::Command::new(python)
+        .arg(repo().join("tests/cluster").join(script))
+        .args(args)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+    assert!(
+        out.status.success(),
+        "{script} failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    stdout
+}
+
+/// The number after `name=` in a client's `name=value ...` output.
+pub fn figure(out: &str, name: &str) -> f64 {
+    out.split(&format!("{name}="))
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no {name} in: {out}"))
+}

@@ -1,6 +1,6 @@
 //! Decision: the speed mode from the nearest of the four stop distances.
 
-use trafficmesh_model::{LightColor, NpcVehicleConfig, SpeedMode};
+use trafficmesh_model::{NpcVehicleConfig, SpeedMode};
 
 use crate::vehicle::Vehicle;
 
@@ -50,16 +50,13 @@ impl StopCandidates {
     }
 }
 
-pub fn stop_candidates(v: &Vehicle, d: &StopDistances, pickup: Pickup) -> StopCandidates {
+pub fn stop_candidates(v: &Vehicle) -> StopCandidates {
     let front_vehicle = v.distance_to_front - MIN_FRONT_VEHICLE_DISTANCE;
-    let traffic_light = match (v.light_lane, v.passability) {
-        (None, _) | (_, LightColor::Green) => f64::INFINITY,
-        (Some(_), LightColor::Yellow)
-            if commits_through_yellow(v.speed, v.distance_to_light, v.yellow_left, pickup, d) =>
-        {
-            f64::INFINITY
-        }
-        (Some(_), _) => v.distance_to_light,
+    // Cognition read the light, yellow rule included (`commits_through_yellow`).
+    let traffic_light = if v.stops_at_light {
+        v.distance_to_light
+    } else {
+        f64::INFINITY
     };
     let right_of_way = if v.yield_phase.is_yielding() {
         v.signed_distance(v.yield_point)
@@ -132,14 +129,10 @@ pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) ->
 }
 
 /// The speed mode, and the stop points it was chosen from (the realistic
-/// driver model brakes for them itself); `limit`: the speed limit in force.
-pub fn decide(v: &Vehicle, c: &NpcVehicleConfig, limit: f64) -> (SpeedMode, StopCandidates) {
+/// driver model brakes for them itself).
+pub fn decide(v: &Vehicle, c: &NpcVehicleConfig) -> (SpeedMode, StopCandidates) {
     let d = StopDistances::at(v.speed, c);
-    let pickup = Pickup {
-        acceleration: c.acceleration,
-        limit,
-    };
-    let stops = stop_candidates(v, &d, pickup);
+    let stops = stop_candidates(v);
     (speed_mode(stops.nearest(), v.is_turning, &d), stops)
 }
 

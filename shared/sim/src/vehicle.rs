@@ -140,8 +140,8 @@ pub struct Vehicle {
     pub forced_through: Option<u32>,
     pub should_despawn: bool,
     pub passability: LightColor,
-    /// Seconds until the yellow of that light turns red; infinite for other colours.
-    pub yellow_left: f64,
+    /// That light makes it stop: red, or a yellow it is not committed to.
+    pub stops_at_light: bool,
     pub yield_phase: YieldPhase,
     pub speed_mode: SpeedMode,
     pub is_turning: bool,

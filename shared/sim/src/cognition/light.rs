@@ -15,8 +15,9 @@ pub struct LightView {
     /// Along-path metres from the front bumper to the stop line.
     pub distance: f64,
     pub color: LightColor,
-    /// Seconds until a yellow turns red; infinite for other colours.
-    pub yellow_left: f64,
+    /// The vehicle must stop at it: red, or a yellow it is not committed to
+    /// (the Decision step reads this, not the colour).
+    pub stops: bool,
 }
 
 impl LightView {
@@ -24,25 +25,19 @@ impl LightView {
         lane: None,
         distance: f64::INFINITY,
         color: LightColor::Green,
-        yellow_left: f64::INFINITY,
+        stops: false,
     };
+}
 
-    /// Must the vehicle stop at this line: red, or a yellow it is not
-    /// committed to?
-    fn binds(&self, snap: &Snapshot, v: &Vehicle) -> bool {
-        match self.color {
-            LightColor::Green => false,
-            LightColor::Yellow => {
-                let stops = StopDistances::at(v.speed, snap.config);
-                let pickup = Pickup {
-                    acceleration: snap.config.acceleration,
-                    limit: speed_limit(snap.net, v, snap.config),
-                };
-                !commits_through_yellow(v.speed, self.distance, self.yellow_left, pickup, &stops)
-            }
-            _ => true,
-        }
-    }
+/// Does a yellow that turns red in `yellow_left` seconds, `distance` ahead,
+/// let the vehicle go on? (See [`commits_through_yellow`].)
+fn commits(snap: &Snapshot, v: &Vehicle, distance: f64, yellow_left: f64) -> bool {
+    let stops = StopDistances::at(v.speed, snap.config);
+    let pickup = Pickup {
+        acceleration: snap.config.acceleration,
+        limit: speed_limit(snap.net, v, snap.config),
+    };
+    commits_through_yellow(v.speed, distance, yellow_left, pickup, &stops)
 }
 
 /// A front this far past a stop line has crossed it, metres; less is a stop
@@ -71,17 +66,19 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
             }
         }
         let distance = distance.max(0.0);
+        let stops = match state.color {
+            LightColor::Green => false,
+            // A remote state may end a hair before the tick it is read in.
+            LightColor::Yellow => !commits(snap, v, distance, (state.ends - snap.time).max(0.0)),
+            _ => true,
+        };
         let view = LightView {
             lane: Some(lane),
             distance,
             color: state.color,
-            yellow_left: match state.color {
-                // A remote state may end a hair before the tick it is read in.
-                LightColor::Yellow => (state.ends - snap.time).max(0.0),
-                _ => f64::INFINITY,
-            },
+            stops,
         };
-        if view.binds(snap, v) {
+        if stops {
             return view;
         }
         first.get_or_insert(view);

@@ -51,7 +51,7 @@ pub struct Perception {
     pub light_lane: Option<LaneId>,
     pub distance_to_light: f64,
     pub passability: LightColor,
-    pub yellow_left: f64,
+    pub stops_at_light: bool,
     pub yield_phase: YieldPhase,
     pub yield_point: DVec2,
     pub yield_lane: Option<LaneId>,
@@ -92,7 +92,7 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
         light_lane: light.lane,
         distance_to_light: light.distance,
         passability: light.color,
-        yellow_left: light.yellow_left,
+        stops_at_light: light.stops,
         yield_phase: row.phase,
         yield_point: row.point,
         yield_lane: row.lane,
@@ -110,7 +110,7 @@ impl Perception {
         v.light_lane = self.light_lane;
         v.distance_to_light = self.distance_to_light;
         v.passability = self.passability;
-        v.yellow_left = self.yellow_left;
+        v.stops_at_light = self.stops_at_light;
         v.yield_phase = self.yield_phase;
         v.yield_point = self.yield_point;
         v.yield_lane = self.yield_lane;

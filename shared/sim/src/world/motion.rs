@@ -128,11 +128,10 @@ fn move_vehicle(
         return None;
     }
     let s_before = v.s;
-    // One lookup of the lane's limit for the decision, the speed step and the
-    // trip's time loss.
-    let limit = speed_limit(net, v, config);
-    let (mode, stops) = decide(v, config, limit);
+    let (mode, stops) = decide(v, config);
     v.speed_mode = mode;
+    // One lookup of the lane's limit for the speed step and the trip's time loss.
+    let limit = speed_limit(net, v, config);
     step_speed(net, v, config, &stops, limit, dt);
     update_pose(net, v);
     update_trip(v, dt, limit);

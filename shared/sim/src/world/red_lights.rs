@@ -1,8 +1,8 @@
 //! Red-light crossings, counted where they happen: a front bumper that goes
 //! `PAST_LINE` beyond a signalised stop line while its group has been red
 //! for more than [`RED_GRACE`]. Zero is expected: the yellow rule
-//! (`decision::commits_through_yellow`) lets a vehicle cross only within the
-//! yellow time.
+//! (`decision::commits_through_yellow`, read by `cognition::light`) lets a
+//! vehicle cross only within the yellow time.
 
 use trafficmesh_model::LightColor;
 
@@ -23,8 +23,6 @@ pub struct RedLightCrossing {
     pub lane: LaneId,
     /// Seconds the group had been red.
     pub into_red: f64,
-    /// Speed as the front went past, m/s.
-    pub speed: f64,
 }
 
 /// Did the front, which was at `s_before` on path[0] before this tick's
@@ -62,7 +60,6 @@ pub(super) fn crossed_on_red(
                     vehicle: v.id,
                     lane,
                     into_red,
-                    speed: v.speed,
                 });
             }
         }

@@ -246,7 +246,7 @@ impl World {
             light_lane: None,
             distance_to_light: f64::INFINITY,
             passability: Default::default(),
-            yellow_left: f64::INFINITY,
+            stops_at_light: false,
             yield_lane: None,
             yield_phase: Default::default(),
             yield_point: DVec2::ZERO,
