@@ -22,6 +22,7 @@ mod events;
 pub mod geometry;
 mod idm;
 pub mod lane_change;
+mod lane_choice;
 mod lane_index;
 pub mod lights;
 mod lookahead;

@@ -5,6 +5,8 @@ mod support;
 
 use serde_json::json;
 use support::*;
+use trafficmesh_model::LightColor;
+use trafficmesh_sim::lights::LightControl;
 use trafficmesh_sim::{World, WorldConfig};
 
 /// Two eastbound lanes side by side, 3.2 m apart, each going on through its own
@@ -235,4 +237,98 @@ fn a_realistic_driver_without_a_route_may_change_lanes_for_a_turn_its_own_lane_d
         0,
         "the reference's NPCs keep their lanes"
     );
+}
+
+/// Two eastbound lanes into a junction: "a0" goes straight on only, "a1"
+/// straight on or left through "left" (its own signal, "ARROW"). Exits "x0",
+/// "x1" (straight) and "n" (north, after the left turn).
+fn shared_left_lane() -> trafficmesh_model::MapFile {
+    let mut j0 = lane("j0", &[[200.0, 0.0], [220.0, 0.0]], &["x0"]);
+    let mut j1 = lane("j1", &[[200.0, 3.2], [220.0, 3.2]], &["x1"]);
+    let mut left = lane("left", &[[200.0, 3.2], [210.0, 6.0], [215.0, 20.0]], &["n"]);
+    for l in [&mut j0, &mut j1, &mut left] {
+        l["intersection"] = json!(true);
+    }
+    left["stop_line"] = json!([[200.0, 1.6], [200.0, 4.8]]);
+    left["traffic_light"] = json!("ARROW");
+    map(
+        vec![
+            lane("a0", &[[0.0, 0.0], [200.0, 0.0]], &["j0"]),
+            lane("a1", &[[0.0, 3.2], [200.0, 3.2]], &["j1", "left"]),
+            j0,
+            j1,
+            left,
+            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &[]),
+            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &[]),
+            lane("n", &[[215.0, 20.0], [215.0, 300.0]], &[]),
+        ],
+        json!({ "light_groups": [{ "name": "ARROW", "program": { "green": 30, "yellow": 3, "red": 30 } }] }),
+    )
+}
+
+/// Four left turners wait at a red arrow; behind them in the shared lane,
+/// four drivers going straight on. Returns the world and their ids.
+fn queue_behind_a_red_arrow(model: trafficmesh_model::DriverModel) -> (World, Vec<u64>) {
+    let config = WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model: model,
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    let mut w = world(&shared_left_lane(), config);
+    w.set_light("ARROW", LightControl::Forced(LightColor::Red))
+        .unwrap();
+    for s in [199.0, 191.0, 183.0, 175.0] {
+        w.place_vehicle_on_route("Taxi", &["a1", "left", "n"], s, 0.0)
+            .unwrap();
+    }
+    let straight = [167.0, 159.0, 151.0, 143.0]
+        .iter()
+        .map(|&s| {
+            w.place_vehicle_on_route("Taxi", &["a1", "j1", "x1"], s, 0.0)
+                .unwrap()
+        })
+        .collect();
+    (w, straight)
+}
+
+#[test]
+fn drivers_going_straight_leave_a_lane_held_by_a_red_arrow_for_the_free_lane_beside() {
+    let (mut w, straight) =
+        queue_behind_a_red_arrow(trafficmesh_model::DriverModel::Realistic(Default::default()));
+    // The arrow stays red throughout: only a change of lane gets them out.
+    let through = run_until(&mut w, 60.0, |w| {
+        assert!(
+            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            "overlap at t={:.2}",
+            w.time()
+        );
+        straight.iter().all(|&id| {
+            w.vehicle(id)
+                .is_none_or(|v| w.network().lane(v.path[0]).name == "x0")
+        })
+    });
+    let stuck: Vec<String> = straight
+        .iter()
+        .filter_map(|&id| w.vehicle(id))
+        .map(|v| {
+            format!(
+                "{} at s={:.1} on {}",
+                v.id,
+                v.s,
+                w.network().lane(v.path[0]).name
+            )
+        })
+        .collect();
+    assert!(through, "still behind the red arrow after 60 s: {stuck:?}");
+}
+
+#[test]
+fn the_references_drivers_keep_their_lane_behind_a_red_arrow() {
+    let (mut w, straight) = queue_behind_a_red_arrow(trafficmesh_model::DriverModel::Awsim);
+    run_for(&mut w, 60.0);
+    for id in straight {
+        assert_eq!(lane_of(&w, id), "a1", "vehicle {id} left its lane");
+    }
 }

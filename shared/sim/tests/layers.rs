@@ -38,6 +38,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "control",
             "visualization",
             "lane_change",
+            "lane_choice",
             "spawn",
         ],
     ),

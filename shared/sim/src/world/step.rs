@@ -11,6 +11,7 @@ use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
+use crate::lane_choice;
 use crate::lookahead;
 use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
@@ -130,10 +131,15 @@ impl World {
             .iter()
             .filter_map(|&i| lane_change::plan(net, index, vehicles, i as usize, &motion))
             .collect();
-        if candidates.is_empty() {
+        let mut choices: Vec<lane_choice::Choice> = (0..vehicles.len())
+            .filter(|&i| lane_choice::due(&vehicles[i], self.ticks, self.config.dt))
+            .filter_map(|i| lane_choice::choose(net, index, vehicles, i, &motion))
+            .collect();
+        if candidates.is_empty() && choices.is_empty() {
             return false;
         }
         candidates.sort_by_key(|c| vehicles[c.vehicle].id);
+        choices.sort_by_key(|c| vehicles[c.vehicle].id);
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
         for c in candidates {
@@ -154,6 +160,18 @@ impl World {
                 self.change_lane(j, their_target);
                 changed[j] = true;
             }
+        }
+        // Then the optional ones, into the gaps the needed ones left.
+        for c in choices {
+            let v = &self.vehicles[c.vehicle];
+            let gaps = lane_change::Gaps::of(&self.net, v, &motion);
+            if changed[c.vehicle] || !lane_change::clear_of(&moved, v, c.target, gaps) {
+                continue;
+            }
+            moved.push(lane_change::Moved::of(v, c.target));
+            lane_choice::reroute(&self.net, &mut self.vehicles[c.vehicle], &c);
+            self.change_lane(c.vehicle, c.target);
+            changed[c.vehicle] = true;
         }
         !moved.is_empty()
     }
