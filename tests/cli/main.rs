@@ -7,7 +7,7 @@ mod support;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use serde_json::Value;
+use serde_json::{Value, json};
 
 fn trafficmesh(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
@@ -76,6 +76,28 @@ fn same_seed_same_trajectories_whatever_the_thread_count_and_another_seed_differ
     assert_eq!(one["trajectory_hash"], two["trajectory_hash"]);
     assert_eq!(one["vehicle_steps"], two["vehicle_steps"]);
     assert_ne!(one["trajectory_hash"], other["trajectory_hash"]);
+}
+
+#[test]
+fn the_default_tick_follows_the_driver_model() {
+    let net = repo_file("configs/sumo/grid3_crossings.net.xml");
+    let tick = |extra: &[&str]| {
+        let mut args = vec!["--duration", "30"];
+        args.extend_from_slice(extra);
+        let v = sim_json(&net, &args);
+        (
+            v["driver_model"].clone(),
+            v["dt"].as_f64().unwrap(),
+            v["ticks"].as_u64().unwrap(),
+        )
+    };
+    // A SUMO network drives `realistic` by default, at 20 Hz.
+    assert_eq!(tick(&[]), (json!("realistic"), 0.05, 600));
+    assert_eq!(
+        tick(&["--driver-model", "awsim"]),
+        (json!("awsim"), 0.02, 1500)
+    );
+    assert_eq!(tick(&["--dt", "0.1"]), (json!("realistic"), 0.1, 300));
 }
 
 #[test]

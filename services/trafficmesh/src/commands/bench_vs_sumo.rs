@@ -4,7 +4,8 @@
 //! memory, and trip statistics.
 //!
 //! The two count steps differently: SUMO steps every vehicle once per
-//! simulated second by default, trafficmesh 50 times (dt 0.02 s; `--dt`). The figures
+//! simulated second by default, trafficmesh 20 times with `realistic` drivers and 50 with
+//! `awsim` ones (`sim`'s default tick; `--dt`). The figures
 //! are per vehicle-step as each simulator defines it; `speedup` divides
 //! trafficmesh's vehicle-steps per second by SUMO's, as the issue asks.
 
@@ -35,7 +36,8 @@ pub struct VsSumoArgs {
     /// Rounds, alternating SUMO and trafficmesh; the median round is reported.
     #[arg(long, default_value_t = 1)]
     rounds: usize,
-    /// trafficmesh's tick length, seconds (`sim --dt`; default its 0.02).
+    /// trafficmesh's tick length, seconds (`sim --dt`; default `sim`'s for the
+    /// run's driver model).
     #[arg(long)]
     dt: Option<f64>,
     /// The `sumo` binary (default: TRAFFICMESH_SUMO, `sumo` on PATH, then the

@@ -50,9 +50,10 @@ pub struct SimArgs {
     /// Worker threads (0 = one per core). Results do not depend on it.
     #[arg(long, default_value_t = 0)]
     threads: usize,
-    /// Tick length, seconds.
-    #[arg(long, default_value_t = 0.02, allow_negative_numbers = true)]
-    dt: f64,
+    /// Tick length, seconds [default: 0.02 with `awsim` drivers, the
+    /// reference's 50 Hz; 0.05 with `realistic` ones].
+    #[arg(long, allow_negative_numbers = true)]
+    dt: Option<f64>,
     /// Directory for trips.csv, traffic_branch_decisions.csv and traffic_spawn.json.
     #[arg(long)]
     out: Option<PathBuf>,
@@ -168,8 +169,10 @@ pub fn run(a: SimArgs) -> Result<()> {
     }
     trafficmesh_service::check_flags(&a.spawn_distance)?;
     let spawn_distance_to_ego = a.spawn_distance.spawn_distance_to_ego;
-    if !(a.dt.is_finite() && a.dt > 0.0 && a.dt <= 1.0) {
-        bail!("--dt must be in (0, 1] seconds, got {}", a.dt);
+    if let Some(dt) = a.dt
+        && !(dt.is_finite() && dt > 0.0 && dt <= 1.0)
+    {
+        bail!("--dt must be in (0, 1] seconds, got {dt}");
     }
     let map_path = a
         .sumocfg
@@ -186,6 +189,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         map_path,
     );
     vehicle.validate().map_err(anyhow::Error::msg)?;
+    let dt = a.dt.unwrap_or(vehicle.driver_model.default_tick());
     let (net, warnings, duration) = load(&a)?;
     for w in warnings {
         eprintln!("warning: {w}");
@@ -197,7 +201,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             .unwrap_or(trafficmesh_sim::world::default_max_vehicles(
                 a.routes.is_some() || a.sumocfg.is_some(),
             )),
-        dt: a.dt,
+        dt,
         vehicle,
         jam_timeout: a.jam_timeout,
         spawn_distance_to_ego,
@@ -222,7 +226,7 @@ pub fn run(a: SimArgs) -> Result<()> {
     let pool = thread_pool(a.threads)?;
     // Without a length, run until every vehicle has arrived.
     let until_done = duration.is_none();
-    let ticks = (duration.unwrap_or(UNTIL_DONE_LIMIT) / a.dt).round() as u64;
+    let ticks = (duration.unwrap_or(UNTIL_DONE_LIMIT) / dt).round() as u64;
     let progress = ProgressBar::new(ticks).with_style(
         ProgressStyle::with_template("{bar:40} {percent:>3}% sim {msg} eta {eta}")
             .expect("valid template"),
@@ -293,7 +297,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         vehicle_config: world.config().vehicle,
         seed: a.seed,
         threads: pool.current_num_threads(),
-        dt: a.dt,
+        dt,
         ticks: world.ticks(),
         simulated_seconds: world.time(),
         wall_seconds: wall,
