@@ -240,13 +240,16 @@ fn a_realistic_driver_without_a_route_may_change_lanes_for_a_turn_its_own_lane_d
 }
 
 /// Two eastbound lanes into a junction: "a0" goes straight on only, "a1"
-/// straight on or left through "left" (its own signal, "ARROW"). Exits "x0",
-/// "x1" (straight) and "n" (north, after the left turn).
+/// straight on or left through "left" (its own signal, "ARROW"). Straight on,
+/// "x0" and "x1" run side by side and merge into "y"; "n" goes north after
+/// the left turn.
 fn shared_left_lane() -> trafficmesh_model::MapFile {
     let mut j0 = lane("j0", &[[200.0, 0.0], [220.0, 0.0]], &["x0"]);
     let mut j1 = lane("j1", &[[200.0, 3.2], [220.0, 3.2]], &["x1"]);
     let mut left = lane("left", &[[200.0, 3.2], [210.0, 6.0], [215.0, 20.0]], &["n"]);
-    for l in [&mut j0, &mut j1, &mut left] {
+    let mut k0 = lane("k0", &[[400.0, 0.0], [420.0, 1.6]], &["y"]);
+    let mut k1 = lane("k1", &[[400.0, 3.2], [420.0, 1.6]], &["y"]);
+    for l in [&mut j0, &mut j1, &mut left, &mut k0, &mut k1] {
         l["intersection"] = json!(true);
     }
     left["stop_line"] = json!([[200.0, 1.6], [200.0, 4.8]]);
@@ -258,8 +261,11 @@ fn shared_left_lane() -> trafficmesh_model::MapFile {
             j0,
             j1,
             left,
-            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &[]),
-            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &[]),
+            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &["k0"]),
+            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &["k1"]),
+            k0,
+            k1,
+            lane("y", &[[420.0, 1.6], [700.0, 1.6]], &[]),
             lane("n", &[[215.0, 20.0], [215.0, 300.0]], &[]),
         ],
         json!({ "light_groups": [{ "name": "ARROW", "program": { "green": 30, "yellow": 3, "red": 30 } }] }),
@@ -267,8 +273,11 @@ fn shared_left_lane() -> trafficmesh_model::MapFile {
 }
 
 /// Four left turners wait at a red arrow; behind them in the shared lane,
-/// four drivers going straight on. Returns the world and their ids.
-fn queue_behind_a_red_arrow(model: trafficmesh_model::DriverModel) -> (World, Vec<u64>) {
+/// four drivers going straight on by `route`. Returns the world and their ids.
+fn queue_behind_a_red_arrow(
+    model: trafficmesh_model::DriverModel,
+    route: &[&str],
+) -> (World, Vec<u64>) {
     let config = WorldConfig {
         vehicle: trafficmesh_model::NpcVehicleConfig {
             driver_model: model,
@@ -285,48 +294,81 @@ fn queue_behind_a_red_arrow(model: trafficmesh_model::DriverModel) -> (World, Ve
     }
     let straight = [167.0, 159.0, 151.0, 143.0]
         .iter()
-        .map(|&s| {
-            w.place_vehicle_on_route("Taxi", &["a1", "j1", "x1"], s, 0.0)
-                .unwrap()
-        })
+        .map(|&s| w.place_vehicle_on_route("Taxi", route, s, 0.0).unwrap())
         .collect();
     (w, straight)
 }
 
-#[test]
-fn drivers_going_straight_leave_a_lane_held_by_a_red_arrow_for_the_free_lane_beside() {
-    let (mut w, straight) =
-        queue_behind_a_red_arrow(trafficmesh_model::DriverModel::Realistic(Default::default()));
-    // The arrow stays red throughout: only a change of lane gets them out.
-    let through = run_until(&mut w, 60.0, |w| {
+/// Runs `seconds` (the arrow stays red throughout), failing on any overlap;
+/// returns the road lanes each of `ids` was seen on, in order.
+fn road_lanes_seen(w: &mut World, ids: &[u64], seconds: f64) -> Vec<Vec<String>> {
+    let mut seen: Vec<Vec<String>> = vec![Vec::new(); ids.len()];
+    run_until(w, seconds, |w| {
         assert!(
             overlapping_pairs(w.vehicles(), 0.05).is_empty(),
             "overlap at t={:.2}",
             w.time()
         );
-        straight.iter().all(|&id| {
-            w.vehicle(id)
-                .is_none_or(|v| w.network().lane(v.path[0]).name == "x0")
-        })
+        for (k, &id) in ids.iter().enumerate() {
+            if let Some(v) = w.vehicle(id) {
+                let lane = w.network().lane(v.path[0]);
+                if !lane.intersection && seen[k].last() != Some(&lane.name) {
+                    seen[k].push(lane.name.clone());
+                }
+            }
+        }
+        false
     });
-    let stuck: Vec<String> = straight
-        .iter()
-        .filter_map(|&id| w.vehicle(id))
-        .map(|v| {
-            format!(
-                "{} at s={:.1} on {}",
-                v.id,
-                v.s,
-                w.network().lane(v.path[0]).name
-            )
+    seen
+}
+
+#[test]
+fn drivers_going_straight_leave_a_lane_held_by_a_red_arrow_for_the_free_lane_beside() {
+    let realistic = trafficmesh_model::DriverModel::Realistic(Default::default());
+    let (mut w, straight) = queue_behind_a_red_arrow(realistic, &["a1", "j1", "x1"]);
+    let seen = road_lanes_seen(&mut w, &straight, 60.0);
+    for (id, lanes) in straight.iter().zip(&seen) {
+        // Their route ends on x1: beside it is as good.
+        assert_eq!(lanes[..3], ["a1", "a0", "x0"], "vehicle {id}: {lanes:?}");
+    }
+}
+
+#[test]
+fn a_driver_who_leaves_its_planned_lane_rejoins_its_route_further_on() {
+    let realistic = trafficmesh_model::DriverModel::Realistic(Default::default());
+    let route = ["a1", "j1", "x1", "k1", "y"];
+    let (mut w, straight) = queue_behind_a_red_arrow(realistic, &route);
+    let starts: Vec<f64> = straight.iter().map(|&id| vehicle(&w, id).s).collect();
+    let seen = road_lanes_seen(&mut w, &straight, 90.0);
+    let trips: Vec<trafficmesh_sim::TripRecord> = w
+        .drain_events()
+        .into_iter()
+        .filter_map(|e| match e {
+            trafficmesh_sim::SimEvent::Despawned(trip) => Some(trip),
+            _ => None,
         })
         .collect();
-    assert!(through, "still behind the red arrow after 60 s: {stuck:?}");
+    for ((id, lanes), start) in straight.iter().zip(&seen).zip(starts) {
+        assert_eq!(lanes, &["a1", "a0", "x0", "y"], "vehicle {id}");
+        let trip = trips
+            .iter()
+            .find(|t| t.id == *id)
+            .unwrap_or_else(|| panic!("vehicle {id} did not reach y's end"));
+        // To the end of y and no further: the rest of the route is not
+        // driven again after the rejoin.
+        let route_left = (200.0 - start) + 20.0 + 180.0 + 20.06 + 280.0;
+        assert!(
+            (trip.distance - route_left).abs() < 2.0,
+            "vehicle {id} drove {:.1} m, its route's rest is {route_left:.1} m",
+            trip.distance
+        );
+    }
 }
 
 #[test]
 fn the_references_drivers_keep_their_lane_behind_a_red_arrow() {
-    let (mut w, straight) = queue_behind_a_red_arrow(trafficmesh_model::DriverModel::Awsim);
+    let (mut w, straight) =
+        queue_behind_a_red_arrow(trafficmesh_model::DriverModel::Awsim, &["a1", "j1", "x1"]);
     run_for(&mut w, 60.0);
     for id in straight {
         assert_eq!(lane_of(&w, id), "a1", "vehicle {id} left its lane");
