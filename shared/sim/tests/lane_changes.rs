@@ -342,7 +342,6 @@ fn a_driver_who_leaves_its_planned_lane_rejoins_its_route_further_on() {
     let seen = road_lanes_seen(&mut w, &straight, 90.0);
     let trips: Vec<trafficmesh_sim::TripRecord> = w
         .drain_events()
-        .into_iter()
         .filter_map(|e| match e {
             trafficmesh_sim::SimEvent::Despawned(trip) => Some(trip),
             _ => None,
