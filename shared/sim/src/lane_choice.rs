@@ -100,7 +100,7 @@ pub fn choose(
     lane.siblings
         .iter()
         .copied()
-        .filter(|&s| beside(net, here, s) && net.allows(s, v.kind))
+        .filter(|&s| net.beside(here, s) && net.allows(s, v.kind))
         .map(|s| (queue_ahead(index, s, v.s), s))
         .filter(|&(queue, s)| queue + MARGIN <= own && flowing(index, s, v.s))
         .filter_map(|(queue, s)| {
@@ -115,12 +115,6 @@ pub fn choose(
             via,
             rejoins,
         })
-}
-
-/// Is `other` the road lane right beside `lane` (not one further across)?
-fn beside(net: &LaneNetwork, lane: LaneId, other: LaneId) -> bool {
-    let l = net.lane(lane);
-    net.lane(other).line.point(0).distance(l.line.point(0)) < 1.5 * l.width.max(2.5)
 }
 
 /// Does traffic move on `lane` ahead of arc length `s`: the nearest body ahead
@@ -205,7 +199,7 @@ fn rejoining_way(
                     longer.remove(0);
                     return Some((longer, k));
                 }
-                if net.lane(ahead[k]).siblings.contains(&n) && beside(net, ahead[k], n) {
+                if net.beside(ahead[k], n) {
                     if open_end && passed + 1 == roads.len() {
                         longer.remove(0);
                         return Some((longer, ahead.len()));

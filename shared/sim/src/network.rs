@@ -366,6 +366,14 @@ impl LaneNetwork {
         h.0
     }
 
+    /// Is `other` a sibling of `lane` right beside it, not one further across?
+    /// A lane change moves a body across at once, so only to such a lane.
+    pub fn beside(&self, lane: LaneId, other: LaneId) -> bool {
+        let l = self.lane(lane);
+        l.siblings.contains(&other)
+            && self.lane(other).line.point(0).distance(l.line.point(0)) < 1.5 * l.width.max(2.5)
+    }
+
     /// May vehicles of kind `kind` drive on `lane`?
     pub fn allows(&self, lane: LaneId, kind: usize) -> bool {
         let classes = &self.lane(lane).vehicle_classes;

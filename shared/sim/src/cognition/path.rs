@@ -189,10 +189,7 @@ fn other_turns(net: &LaneNetwork, v: &Vehicle, last: LaneId, own: &[LaneId]) -> 
     }
     let mut ways: Vec<_> = own.iter().map(|&n| net.lane(n).turn).collect();
     let mut found = Vec::new();
-    // Only the lanes next to it: a change moves the body across at once.
-    let start = lane.line.point(0);
-    let beside = |s: LaneId| net.lane(s).line.point(0).distance(start) < 1.5 * lane.width.max(2.5);
-    for &sibling in lane.siblings.iter().filter(|&&s| beside(s)) {
+    for &sibling in lane.siblings.iter().filter(|&&s| net.beside(last, s)) {
         for &n in &net.lane(sibling).next {
             let turn = net.lane(n).turn;
             if net.allows(n, v.kind) && !ways.contains(&turn) {
