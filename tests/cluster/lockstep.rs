@@ -13,18 +13,18 @@ use crate::support::*;
 /// `sim`'s trajectory hash for the four-way map, seed 7 (the test clusters'),
 /// walkers on as in the cluster.
 fn sim_hash(duration: f64) -> String {
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-        .args(["sim", "--map"])
-        .arg(four_way())
-        .args(["--seed", "7", "--duration", &duration.to_string(), "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "sim failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let map = four_way();
+    let out = trafficmesh_cli(&[
+        "sim",
+        "--map",
+        map.to_str().unwrap(),
+        "--seed",
+        "7",
+        "--duration",
+        &duration.to_string(),
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&out).unwrap();
     report["trajectory_hash"].as_str().unwrap().to_string()
 }
 

@@ -572,24 +572,15 @@ fn late_joiners_see_every_light_and_crosswalk_at_once() {
     });
     // Long enough that the states were published well before we join.
     std::thread::sleep(Duration::from_secs(2));
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-        .args([
-            "watch",
-            "--count",
-            "1",
-            "--cluster",
-            &cluster.name,
-            "--connect",
-        ])
-        .arg(&cluster.endpoint)
-        .output()
-        .unwrap();
-    let line = String::from_utf8_lossy(&out.stdout).to_string();
-    assert!(
-        out.status.success(),
-        "{line}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let line = trafficmesh_cli(&[
+        "watch",
+        "--count",
+        "1",
+        "--cluster",
+        &cluster.name,
+        "--connect",
+        &cluster.endpoint,
+    ]);
     let counts: Vec<u32> = line
         .split("lights green/yellow/red=")
         .nth(1)
@@ -754,16 +745,7 @@ fn no_vehicle_crosses_a_stop_line_on_red_on_the_grid() {
     };
     let maps = tempfile::tempdir().unwrap();
     let grid = maps.path().join("grid10.map.json");
-    let made = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
-        .args(["gen-grid", "--size", "10", "--out"])
-        .arg(&grid)
-        .output()
-        .unwrap();
-    assert!(
-        made.status.success(),
-        "{}",
-        String::from_utf8_lossy(&made.stderr)
-    );
+    trafficmesh_cli(&["gen-grid", "--size", "10", "--out", grid.to_str().unwrap()]);
     let cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
         stepper: "speed = 4".into(),
         spawner: "max_vehicles = 400".into(),

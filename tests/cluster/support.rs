@@ -295,19 +295,32 @@ pub fn runtime() -> tokio::runtime::Runtime {
         .unwrap()
 }
 
+/// Runs the `trafficmesh` command line with `args`, as a user would; its
+/// standard output, once it exits successfully.
+pub fn trafficmesh_cli<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> String {
+    let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_trafficmesh"));
+    command.args(args);
+    stdout_of(command, "trafficmesh")
+}
+
 /// Runs the Python client `tests/cluster/<script>` with `args`, as a user's
 /// client would run against the cluster; its standard output, once it exits
 /// successfully.
 pub fn python_client<S: AsRef<std::ffi::OsStr>>(python: &str, script: &str, args: &[S]) -> String {
-    let out = std::process::Command::new(python)
+    let mut command = std::process::Command::new(python);
+    command
         .arg(repo().join("tests/cluster").join(script))
-        .args(args)
-        .output()
-        .unwrap();
+        .args(args);
+    stdout_of(command, script)
+}
+
+/// The standard output of `command`, which must exit successfully.
+fn stdout_of(mut command: std::process::Command, what: &str) -> String {
+    let out = command.output().unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout).to_string();
     assert!(
         out.status.success(),
-        "{script} failed:\n{stdout}\n{}",
+        "{what} failed:\n{stdout}\n{}",
         String::from_utf8_lossy(&out.stderr)
     );
     stdout

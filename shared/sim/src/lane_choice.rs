@@ -53,34 +53,52 @@ pub struct Choice {
 /// Seconds between a driver's looks at the lanes beside.
 const LOOK_EVERY: f64 = 1.0;
 
-/// Does the vehicle look at the lanes beside this tick? Each does once every
-/// [`LOOK_EVERY`] seconds, spread over the ticks by id: drivers do not weigh
-/// lanes 50 times a second, and neither need the simulation.
-pub fn due(v: &Vehicle, tick: u64, dt: f64) -> bool {
-    let period = ((LOOK_EVERY / dt).round() as u64).max(1);
-    (tick + v.id).is_multiple_of(period)
+/// Which drivers look at the lanes beside this tick: each once every
+/// [`LOOK_EVERY`] seconds, spread over the ticks by id (drivers do not weigh
+/// lanes 50 times a second, and neither need the simulation).
+#[derive(Clone, Copy)]
+pub struct Looking {
+    tick: u64,
+    period: u64,
 }
 
-/// Vehicle `i`'s lane choice this tick, if it is queued and the lane beside
-/// has a clearly shorter queue, a free gap now, and a way on without lane
-/// changes that rejoins its planned way on a later road (driving meanwhile on
-/// the lanes beside the planned ones).
+impl Looking {
+    pub fn at(tick: u64, dt: f64) -> Self {
+        Looking {
+            tick,
+            period: ((LOOK_EVERY / dt).round() as u64).max(1),
+        }
+    }
+
+    fn due(&self, v: &Vehicle) -> bool {
+        (self.tick + v.id).is_multiple_of(self.period)
+    }
+}
+
+/// Vehicle `i`'s lane choice this tick, if it looks now, is queued, and the
+/// lane beside has a clearly shorter queue, a free gap now, and a way on
+/// without lane changes that rejoins its planned way on a later road
+/// (driving meanwhile on the lanes beside the planned ones).
 pub fn choose(
     net: &LaneNetwork,
     index: &LaneIndex,
     vehicles: &[Vehicle],
     i: usize,
     config: &NpcVehicleConfig,
+    looking: Looking,
 ) -> Option<Choice> {
     let v = &vehicles[i];
+    // Every vehicle is asked every tick: the fields read by every pass first.
     let queued = v.distance_to_front < QUEUED_GAP && v.front_speed < QUEUED_SPEED;
     if !queued || v.lane_change.is_some() || v.should_despawn || v.forced_through.is_some() {
         return None;
     }
-    if !matches!(
-        crate::control::driver_model(net, v, config),
-        DriverModel::Realistic(_)
-    ) {
+    if !looking.due(v)
+        || !matches!(
+            crate::control::driver_model(net, v, config),
+            DriverModel::Realistic(_)
+        )
+    {
         return None;
     }
     let here = *v.path.first()?;
@@ -92,17 +110,22 @@ pub fn choose(
     if own < MARGIN {
         return None;
     }
+    let shorter: Vec<(f64, LaneId)> = net
+        .lanes_beside(here)
+        .filter(|&s| net.allows(s, v.kind))
+        .map(|s| (queue_ahead(index, s, v.s), s))
+        .filter(|&(queue, s)| queue + MARGIN <= own && flowing(index, s, v.s))
+        .collect();
+    if shorter.is_empty() {
+        return None;
+    }
     let ahead: Vec<LaneId> = lanes_ahead(v).take(MAX_LANES_AHEAD + 1).collect();
     // Nothing binds the lanes after the last known one (the route ends there,
     // or there is none and the driver picks its way as it goes): a way may
     // end beside it.
     let open_end = ahead.len() <= MAX_LANES_AHEAD;
-    lane.siblings
-        .iter()
-        .copied()
-        .filter(|&s| net.beside(here, s) && net.allows(s, v.kind))
-        .map(|s| (queue_ahead(index, s, v.s), s))
-        .filter(|&(queue, s)| queue + MARGIN <= own && flowing(index, s, v.s))
+    shorter
+        .into_iter()
         .filter_map(|(queue, s)| {
             let (via, rejoins) = rejoining_way(net, v.kind, s, &ahead, open_end)?;
             let gap_free = crate::lane_change::blockers(net, index, v, s, config).is_empty();

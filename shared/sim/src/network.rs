@@ -374,6 +374,15 @@ impl LaneNetwork {
             && self.lane(other).line.point(0).distance(l.line.point(0)) < 1.5 * l.width.max(2.5)
     }
 
+    /// The siblings of `lane` right beside it (see [`LaneNetwork::beside`]).
+    pub fn lanes_beside(&self, lane: LaneId) -> impl Iterator<Item = LaneId> + '_ {
+        let l = self.lane(lane);
+        l.siblings
+            .iter()
+            .copied()
+            .filter(move |&s| self.beside(lane, s))
+    }
+
     /// May vehicles of kind `kind` drive on `lane`?
     pub fn allows(&self, lane: LaneId, kind: usize) -> bool {
         let classes = &self.lane(lane).vehicle_classes;

@@ -189,7 +189,7 @@ fn other_turns(net: &LaneNetwork, v: &Vehicle, last: LaneId, own: &[LaneId]) -> 
     }
     let mut ways: Vec<_> = own.iter().map(|&n| net.lane(n).turn).collect();
     let mut found = Vec::new();
-    for &sibling in lane.siblings.iter().filter(|&&s| net.beside(last, s)) {
+    for sibling in net.lanes_beside(last) {
         for &n in &net.lane(sibling).next {
             let turn = net.lane(n).turn;
             if net.allows(n, v.kind) && !ways.contains(&turn) {

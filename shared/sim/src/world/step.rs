@@ -131,9 +131,9 @@ impl World {
             .iter()
             .filter_map(|&i| lane_change::plan(net, index, vehicles, i as usize, &motion))
             .collect();
+        let looking = lane_choice::Looking::at(self.ticks, self.config.dt);
         let mut choices: Vec<lane_choice::Choice> = (0..vehicles.len())
-            .filter(|&i| lane_choice::due(&vehicles[i], self.ticks, self.config.dt))
-            .filter_map(|i| lane_choice::choose(net, index, vehicles, i, &motion))
+            .filter_map(|i| lane_choice::choose(net, index, vehicles, i, &motion, looking))
             .collect();
         if candidates.is_empty() && choices.is_empty() {
             return false;
@@ -144,36 +144,37 @@ impl World {
         let mut changed = vec![false; self.vehicles.len()];
         for c in candidates {
             let partner = c.swap_with.map(|(j, _)| j);
-            if changed[c.vehicle] || partner.is_some_and(|j| changed[j]) {
+            if changed[c.vehicle]
+                || partner.is_some_and(|j| changed[j])
+                || !self.gap_still_free(&moved, c.vehicle, c.target)
+            {
                 continue;
             }
-            let v = &self.vehicles[c.vehicle];
-            let gaps = lane_change::Gaps::of(&self.net, v, &motion);
-            if !lane_change::clear_of(&moved, v, c.target, gaps) {
-                continue;
-            }
-            moved.push(lane_change::Moved::of(v, c.target));
-            self.change_lane(c.vehicle, c.target);
-            changed[c.vehicle] = true;
-            if let Some((j, their_target)) = c.swap_with {
-                moved.push(lane_change::Moved::of(&self.vehicles[j], their_target));
-                self.change_lane(j, their_target);
-                changed[j] = true;
+            for (i, target) in std::iter::once((c.vehicle, c.target)).chain(c.swap_with) {
+                moved.push(lane_change::Moved::of(&self.vehicles[i], target));
+                self.change_lane(i, target);
+                changed[i] = true;
             }
         }
         // Then the optional ones, into the gaps the needed ones left.
         for c in choices {
-            let v = &self.vehicles[c.vehicle];
-            let gaps = lane_change::Gaps::of(&self.net, v, &motion);
-            if changed[c.vehicle] || !lane_change::clear_of(&moved, v, c.target, gaps) {
+            if changed[c.vehicle] || !self.gap_still_free(&moved, c.vehicle, c.target) {
                 continue;
             }
-            moved.push(lane_change::Moved::of(v, c.target));
+            moved.push(lane_change::Moved::of(&self.vehicles[c.vehicle], c.target));
             lane_choice::reroute(&self.net, &mut self.vehicles[c.vehicle], &c);
             self.change_lane(c.vehicle, c.target);
             changed[c.vehicle] = true;
         }
         !moved.is_empty()
+    }
+
+    /// Is vehicle `i`'s gap on `target` clear of the bodies already moved
+    /// onto it this tick?
+    fn gap_still_free(&self, moved: &[lane_change::Moved], i: usize, target: LaneId) -> bool {
+        let v = &self.vehicles[i];
+        let gaps = lane_change::Gaps::of(&self.net, v, &self.config.vehicle);
+        lane_change::clear_of(moved, v, target, gaps)
     }
 
     /// Moves vehicle `i` onto `target`, with the right-of-way facts that follow.
