@@ -108,6 +108,8 @@ fn run(args: Args) -> Result<()> {
             cors_origins: settings.cors_origins.clone(),
         };
         let router = api::router(app, &limits);
+        // In place before the admin answers.
+        let signal = runtime::shutdown_signal();
         let listener = tokio::net::TcpListener::bind(settings.listen)
             .await
             .with_context(|| format!("cannot listen on {}", settings.listen))?;
@@ -116,7 +118,7 @@ fn run(args: Args) -> Result<()> {
             listener.local_addr()?
         );
         tokio::select! {
-            r = axum::serve(listener, router).with_graceful_shutdown(runtime::shutdown_signal()) => r?,
+            r = axum::serve(listener, router).with_graceful_shutdown(signal) => r?,
             e = trafficmesh_bus::another_map(&refuse, map) => return Err(e.into()),
         }
         Ok(())

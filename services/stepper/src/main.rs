@@ -129,6 +129,8 @@ fn run(args: Args) -> Result<()> {
             duration: args.settings.duration,
             lockstep,
         };
+        // In place before the tick thread announces anything.
+        let signal = runtime::shutdown_signal();
         let tick_bus = bus.clone();
         let handle = std::thread::Builder::new()
             .name("tick".into())
@@ -137,7 +139,7 @@ fn run(args: Args) -> Result<()> {
             })
             .context("cannot start the tick thread")?;
         tokio::select! {
-            _ = runtime::shutdown_signal() => {
+            _ = signal => {
                 let _ = tx.send(commands::Input {
                     key: String::new(),
                     command: commands::Command::Stop,

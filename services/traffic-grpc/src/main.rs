@@ -68,11 +68,13 @@ async fn run(args: Args) -> Result<()> {
     let incoming = tonic::transport::server::TcpIncoming::bind(s.listen)
         .with_context(|| format!("binding {}", s.listen))?
         .with_nodelay(Some(true));
+    // A signal or the shut_down call; the signal handlers are in place
+    // before the service says it listens.
+    let signal = runtime::shutdown_signal();
     tracing::info!(address = %s.listen, "traffic service listening");
-    // A signal or the shut_down call.
     let signals = async move {
         tokio::select! {
-            _ = runtime::shutdown_signal() => {}
+            _ = signal => {}
             _ = stopped.wait_for(|s| *s) => {}
         }
     };

@@ -79,6 +79,8 @@ pub trait Service: Send + Sync + Sized + 'static {
 pub fn run<S: Service>(args: &ServiceArgs, map: u64, service: S) -> Result<()> {
     args.bus.keys()?;
     runtime::tokio_runtime(S::WORKERS)?.block_on(async move {
+        // In place before the service shows up on the bus.
+        let signal = runtime::shutdown_signal();
         let bus = Arc::new(Bus::open_service(&args.bus, Role::Member, S::NAME).await?);
         let service = Arc::new(service);
         trafficmesh_bus::check_map(&bus, map).await?;
@@ -87,7 +89,7 @@ pub fn run<S: Service>(args: &ServiceArgs, map: u64, service: S) -> Result<()> {
         service.start(&bus).await?;
         tokio::select! {
             r = follow(&bus, &service, args.lockstep) => r?,
-            _ = runtime::shutdown_signal() => {}
+            _ = signal => {}
             e = trafficmesh_bus::another_map(&bus, map) => return Err(e.into()),
         }
         service.stop()
