@@ -113,5 +113,6 @@ pub fn check_report(check: &MotionCheck) -> serde_json::Value {
         "overlaps": tally(&check.overlaps),
         "speeding": tally(&check.speeding),
         "red_lights": tally(&check.red_lights),
+        "relocations": check.relocations,
     })
 }

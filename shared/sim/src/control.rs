@@ -10,7 +10,7 @@ use trafficmesh_model::{DriverModel, IdmParams, NpcVehicleConfig, SpeedLimitSour
 use crate::cognition::path::point_on_path;
 use crate::decision::StopCandidates;
 use crate::network::LaneNetwork;
-use crate::vehicle::{Pose, Vehicle};
+use crate::vehicle::Vehicle;
 
 pub const SLOW_SPEED: f64 = 5.0;
 /// The `realistic` model's top speed on a curve or a turn (30 km/h).
@@ -170,18 +170,20 @@ impl LimitsAhead {
 /// How far ahead a lower lane limit is slowed for, metres.
 const LIMIT_LOOKAHEAD: f64 = 100.0;
 
-/// Recomputes pose, front and back points from the arc position. Both bumpers
-/// sit on the path and the body is the chord between them, so a long vehicle
-/// cuts a curve slightly on the inside instead of swinging its tail into the
-/// next lane; the origin (rear axle) lies on that chord.
+/// Recomputes front and back points and the body's heading from the arc
+/// position, then the pose drawn ([`crate::pose::draw`]), the body having
+/// moved `travelled` metres since. Both bumpers sit on the path and the body
+/// is the chord between them, so a long vehicle cuts a curve slightly on the
+/// inside instead of swinging its tail into the next lane.
 ///
-/// The pose is a function of the lane and arc position alone, so a vehicle
-/// standing where it stood last tick (queued, or held at a light) keeps it.
-pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
+/// A function of the lane and arc position alone, so a vehicle standing
+/// where it stood last tick (queued, or held at a light) keeps it.
+pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, travelled: f64) {
     let at = (v.path[0], v.s);
     if v.pose_at == at {
         return;
     }
+    let fresh = v.pose_at.1.is_nan();
     v.pose_at = at;
     let (front, z_front) = point_on_path(net, v, 0.0);
     let (back, z_back) = point_on_path(net, v, -v.length);
@@ -191,20 +193,12 @@ pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle) {
     if length > 1e-6 {
         v.heading = body / length;
     }
-    let axle = front - v.heading * v.front_offset;
-    // The yaw is the heading's angle: the same heading (a body moving along
-    // a straight lane) has the same yaw without another atan2.
-    let yaw = if v.heading == before {
-        v.pose.yaw
-    } else {
-        v.heading.y.atan2(v.heading.x)
-    };
-    v.pose = Pose {
-        x: axle.x,
-        y: axle.y,
-        z: 0.5 * (z_front + z_back),
-        yaw,
-    };
+    // The same heading (a body moving along a straight lane) has the same
+    // angle without another atan2.
+    if v.heading != before || fresh {
+        v.body_yaw = v.heading.y.atan2(v.heading.x);
+    }
     v.front = front;
     v.back = back;
+    crate::pose::draw(v, travelled, fresh, 0.5 * (z_front + z_back));
 }

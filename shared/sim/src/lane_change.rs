@@ -53,9 +53,6 @@ fn sibling_towards(net: &LaneNetwork, lane: LaneId, next: LaneId) -> Option<Lane
 pub struct Change {
     pub vehicle: usize,
     pub target: LaneId,
-    /// The vehicle beside it that moves the other way at the same time, and
-    /// its target.
-    pub swap_with: Option<(usize, LaneId)>,
 }
 
 /// A body moved onto `lane` this tick: rear, front and speed.
@@ -92,29 +89,9 @@ pub fn plan(
         return None;
     }
     let target = v.lane_change?;
-    let blockers = blockers(net, index, v, target, config);
-    match blockers[..] {
-        [] => Some(Change {
-            vehicle: i,
-            target,
-            swap_with: None,
-        }),
-        // Side by side, each wanting the other's lane: swap.
-        [j] => {
-            let o = &vehicles[j as usize];
-            let alongside = o.rear_s() < v.s && o.s > v.rear_s();
-            let theirs = o.lane_change.filter(|&t| t == v.path[0])?;
-            (alongside
-                && o.rear_s() >= 0.0
-                && blockers_except(index, o, theirs, Gaps::of(net, o, config), i as u32).is_empty())
-            .then_some(Change {
-                vehicle: i,
-                target,
-                swap_with: Some((j as usize, theirs)),
-            })
-        }
-        _ => None,
-    }
+    blockers(net, index, v, target, config)
+        .is_empty()
+        .then_some(Change { vehicle: i, target })
 }
 
 /// What a gap beside must hold for a vehicle to move into it: the distance
@@ -149,6 +126,10 @@ impl<'c> Gaps<'c> {
     }
 }
 
+/// Metres a lane change may move the front bumper along the new lane to be
+/// abreast of where it was (more means the projection found another part of
+/// a winding lane).
+const MAX_ABREAST_SHIFT: f64 = 3.0;
 /// A waiting lane changer slower than this, m/s, is given a gap.
 const URGENT_SPEED: f64 = 3.0;
 /// A waiting lane changer this near its lane's end, metres, is given a gap.
@@ -165,6 +146,10 @@ const GHOST_MARGIN: f64 = 2.0;
 /// reference's sudden one), stays [`GHOST_MARGIN`] further back than behind a
 /// car: SUMO's cooperative lane change, which lets a waiting car into a queue
 /// starting up. One already beside it, or too near to leave it room, drives on.
+///
+/// Two that each want the other's lane cannot both move across side by side:
+/// the one behind (of two abreast, the later id) stays back until the other
+/// has room to move in ahead of it, and moves across behind it.
 pub fn stop_for_ghost(
     net: &LaneNetwork,
     config: &NpcVehicleConfig,
@@ -172,6 +157,12 @@ pub fn stop_for_ghost(
     changer: &Vehicle,
     rear: f64,
 ) -> Option<f64> {
+    if follower.lane_change == Some(changer.path[0]) {
+        let changer_ahead = (changer.s, std::cmp::Reverse(changer.id))
+            > (follower.s, std::cmp::Reverse(follower.id));
+        return changer_ahead
+            .then(|| rear - Gaps::of(net, changer, config).needed(0.0) - GHOST_MARGIN);
+    }
     let urgent = changer.speed < URGENT_SPEED
         || net.lane(changer.path[0]).length() - changer.s < URGENT_DISTANCE;
     let decel = match crate::control::driver_model(net, follower, config) {
@@ -193,20 +184,14 @@ pub fn blockers(
     target: LaneId,
     config: &NpcVehicleConfig,
 ) -> Vec<u32> {
-    blockers_except(index, v, target, Gaps::of(net, v, config), u32::MAX)
+    blockers_except(index, v, target, Gaps::of(net, v, config))
 }
 
-fn blockers_except(
-    index: &LaneIndex,
-    v: &Vehicle,
-    target: LaneId,
-    gaps: Gaps,
-    except: u32,
-) -> Vec<u32> {
+fn blockers_except(index: &LaneIndex, v: &Vehicle, target: LaneId, gaps: Gaps) -> Vec<u32> {
     index
         .on_lane(target)
         .iter()
-        .filter(|o| !o.ghost && o.vehicle != except)
+        .filter(|o| !o.ghost)
         .filter(|o| !clear(v, o.rear, o.front, o.speed, gaps))
         .map(|o| o.vehicle)
         .collect()
@@ -225,11 +210,21 @@ pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, gaps: Gaps) -> boo
         .all(|m| clear(v, m.rear, m.front, m.speed, gaps))
 }
 
-/// Moves the vehicle onto `target` at the same arc length.
+/// Moves the vehicle onto `target`, its front bumper where it is abreast
+/// (lanes beside each other on a bend differ in length); its body eases
+/// across as it drives on, a body on the lane it left meanwhile (see
+/// [`crate::pose`]).
 pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
-    let old = net.lane(v.path[0]).length();
+    let from = v.path[0];
+    let old = net.lane(from).length();
     v.path[0] = target;
     v.path_length += net.lane(target).length() - old;
+    let abreast = net.lane(target).line.project(v.front);
+    if (abreast - v.s).abs() < MAX_ABREAST_SHIFT {
+        // Wholly on the lane it changed from, wholly on the new one.
+        v.s = abreast.max(v.length.min(v.s));
+    }
+    crate::pose::start_sideways(net, v, from);
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
     // The target leads to path[1]: no further change is pending.
     refresh_first_lanes(net, v);

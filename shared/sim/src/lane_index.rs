@@ -97,6 +97,9 @@ impl ChunkItems {
             ghost,
         };
         items.push((v.path[0], body(false)));
+        if let Some(left) = v.shadow_lane(net) {
+            items.push((left, body(false)));
+        }
         if let Some(target) = v.lane_change {
             self.lane_changers.push(i);
             items.push((target, body(true)));

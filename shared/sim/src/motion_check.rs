@@ -81,6 +81,9 @@ pub struct MotionCheck {
     pub speeding: Tally,
     /// Stop lines crossed on red (value: seconds into red; bound: the grace).
     pub red_lights: Tally,
+    /// Vehicles the jam timeout moved ahead (SUMO's teleports): their jump
+    /// is on purpose, counted here and not among the jumps.
+    pub relocations: u64,
     last: HashMap<VehicleId, (DVec2, f64, f64)>,
 }
 
@@ -101,9 +104,12 @@ impl MotionCheck {
         self.ticks += 1;
         self.vehicle_steps += world.vehicles().len() as u64;
         let mut now = HashMap::with_capacity(world.vehicles().len());
+        let relocated = world.relocated_last_tick();
+        self.relocations += relocated.len() as u64;
         for v in world.vehicles() {
             let at = DVec2::new(v.pose.x, v.pose.y);
-            if let Some(&(was, yaw, speed)) = self.last.get(&v.id) {
+            let last = self.last.get(&v.id).filter(|_| !relocated.contains(&v.id));
+            if let Some(&(was, yaw, speed)) = last {
                 let fastest = speed.max(v.speed);
                 let moved = at.distance(was);
                 let may_move = fastest * dt + JUMP_SLACK;

@@ -52,6 +52,24 @@ impl Default for LanesBehind {
     }
 }
 
+/// A lane change under way as the body is drawn: the path moves to the new
+/// lane at once, the body eases across to it as it drives on (see
+/// [`crate::pose`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sideways {
+    /// Metres left of the path's centreline (negative: right).
+    pub offset: f64,
+    /// Heading relative to the path, radians (positive: to the left).
+    pub angle: f64,
+    /// What is left of where it was drawn along the way (the lanes' shapes
+    /// are not parallel everywhere), eased away as it drives on.
+    pub residual: DVec2,
+    /// The lane it left, while its body still reaches into it, and the
+    /// offset under which it no longer does: a body on that lane for those
+    /// coming up behind there.
+    pub shadow: Option<(LaneId, f64)>,
+}
+
 /// The zebra-crossing fields of the crosswalk document.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ZebraState {
@@ -136,6 +154,8 @@ pub struct Vehicle {
     /// The lane beside path[0] that the route goes on from (a lane change it
     /// needs), kept up to date as the path changes.
     pub lane_change: Option<LaneId>,
+    /// A lane change under way as the body is drawn.
+    pub sideways: Sideways,
     /// Set by deadlock breaking: ignore lane rules while entering this junction.
     pub forced_through: Option<u32>,
     pub should_despawn: bool,
@@ -152,8 +172,11 @@ pub struct Vehicle {
     pub distance_to_light: f64,
     pub first_junction_lane: Option<FirstJunctionLane>,
     pub front: DVec2,
-    /// Unit vector of `pose.yaw`.
+    /// Unit vector from the back to the front bumper (the body's chord on
+    /// the path), and its angle: what cognition reads of the heading. The
+    /// pose drawn may differ (see [`crate::pose`]).
     pub heading: DVec2,
+    pub body_yaw: f64,
     pub back: DVec2,
     pub front_offset: f64,
     /// (path[0], s) when the pose was last computed; NaN before the first.
@@ -196,6 +219,27 @@ impl Vehicle {
         } else {
             dist
         }
+    }
+
+    /// The lane it left in a lane change while its body still reaches into
+    /// it, as long as it is on the lane it moved onto.
+    pub fn shadow_lane(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
+        let (lane, _) = self.sideways.shadow?;
+        net.lane(self.path[0])
+            .siblings
+            .contains(&lane)
+            .then_some(lane)
+    }
+
+    /// The lane it left in a lane change while its front still reaches into
+    /// it: it keeps behind the body ahead there.
+    pub fn front_in_lane_left(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
+        let lane = self.shadow_lane(net)?;
+        let (_, clear) = self.sideways.shadow?;
+        // Across from the path toward the lane left (the offset's side).
+        let side = self.sideways.offset.signum();
+        let front = self.sideways.offset + self.front_offset * self.sideways.angle.sin();
+        (front * side > clear).then_some(lane)
     }
 
     /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.

@@ -116,7 +116,7 @@ fn two_vehicles_that_each_want_the_others_lane_swap() {
 }
 
 #[test]
-fn a_vehicle_that_changes_lanes_standing_still_is_drawn_on_its_new_lane() {
+fn a_vehicle_that_changes_lanes_standing_still_is_on_its_new_lane_but_drawn_where_it_stands() {
     let mut w = world(&two_lane_road(), WorldConfig::default());
     let id = w.place_vehicle("Taxi", "a0", 100.0, 0.0).unwrap();
     let net = w.network();
@@ -125,11 +125,18 @@ fn a_vehicle_that_changes_lanes_standing_still_is_drawn_on_its_new_lane() {
     assert!(v.front.y.abs() < 1e-9, "placed on a0 (y = 0)");
     // The move across, then a tick's pose update with the position unchanged.
     trafficmesh_sim::lane_change::apply(net, &mut v, net.lane_id("a1").unwrap());
-    trafficmesh_sim::control::update_pose(net, &mut v);
-    // a1 runs along y = 3.2: the pose and both bumpers follow it.
-    for (what, y) in [("pose", v.pose.y), ("front", v.front.y), ("back", v.back.y)] {
+    trafficmesh_sim::control::update_pose(net, &mut v, 0.0);
+    // a1 runs along y = 3.2: both bumpers follow it, for those who look for
+    // it there; a car standing still does not move sideways, so its pose stays.
+    for (what, y) in [("front", v.front.y), ("back", v.back.y)] {
         assert!((y - 3.2).abs() < 1e-9, "{what} at y = {y}, not on a1");
     }
+    assert!(
+        v.pose.y.abs() < 1e-9,
+        "drawn at y = {}, not where it stood",
+        v.pose.y
+    );
+    assert_eq!(v.shadow_lane(net), net.lane_id("a0"), "still a body on a0");
 }
 
 #[test]

@@ -37,6 +37,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "decision",
             "control",
             "visualization",
+            "pose",
             "lane_change",
             "lane_choice",
             "spawn",

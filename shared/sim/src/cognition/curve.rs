@@ -13,7 +13,7 @@ const CURVE_THRESHOLD_DEG: f64 = 45.0;
 /// cumulative turning, so the cost does not grow with the waypoint count.
 pub fn is_turning(net: &LaneNetwork, v: &Vehicle) -> bool {
     let threshold = CURVE_THRESHOLD_DEG.to_radians();
-    let mut heading = v.pose.yaw;
+    let mut heading = v.body_yaw;
     let mut total = 0.0;
     let mut offset = -v.s;
     for &lane in &v.path {

@@ -89,6 +89,14 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             });
         }
     }
+    // A lane change under way: while its front still reaches into the lane
+    // it left, it keeps behind the body ahead there too.
+    if let Some(left) = v.front_in_lane_left(net) {
+        best = best.nearer(search.leader_on(LaneAhead {
+            lane: left,
+            offset: -v.s,
+        }));
+    }
     // A lane change the route needs and has not found a gap for: wait before
     // the lane's end.
     if v.lane_change.is_some() {
@@ -133,8 +141,10 @@ impl Search<'_, '_> {
         let v = self.v;
         // Sorted by rear: skip every body whose rear is behind ours (one by
         // one: a lane holds a few bodies, fewer than a binary search's steps).
+        // A ghost exactly abreast counts (two side by side that each want the
+        // other's lane: see lane_change::stop_for_ghost).
         let occupants = self.snap.index.on_lane(lane).iter();
-        for occ in occupants.skip_while(|o| offset + o.rear <= -v.length) {
+        for occ in occupants.skip_while(|o| offset + o.rear < -v.length) {
             if occ.vehicle as usize == self.i {
                 continue;
             }
@@ -152,7 +162,12 @@ impl Search<'_, '_> {
             } else {
                 rear
             };
-            if rear > -v.length && front > 0.0 {
+            let ahead = if occ.ghost {
+                rear >= -v.length && front >= 0.0
+            } else {
+                rear > -v.length && front > 0.0
+            };
+            if ahead {
                 return FrontObstacle {
                     distance: stop_at.max(0.0),
                     vehicle: Some(occ.vehicle),

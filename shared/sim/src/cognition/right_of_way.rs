@@ -69,7 +69,7 @@ impl RowInfo {
         let seen = RowInfo {
             front: v.front,
             back: v.back,
-            yaw: v.pose.yaw,
+            yaw: v.body_yaw,
             rear_s: v.rear_s(),
             id: v.id,
             lane: v.path[0],
@@ -399,7 +399,7 @@ impl Ctx<'_, '_> {
     }
 
     fn parallelish(&self, o: &RowInfo) -> bool {
-        let d = angle_between(self.v.pose.yaw, o.yaw).to_degrees();
+        let d = angle_between(self.v.body_yaw, o.yaw).to_degrees();
         !(PARALLEL_BAND_DEG..=180.0 - PARALLEL_BAND_DEG).contains(&d)
     }
 

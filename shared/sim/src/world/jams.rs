@@ -36,6 +36,7 @@ impl World {
     /// put vehicles (lane start, body length).
     pub(super) fn resolve_jams(&mut self) -> Vec<(DVec2, f64)> {
         let mut placed = Vec::new();
+        self.relocated.clear();
         if !self.ticks.is_multiple_of(JAM_CHECK_INTERVAL) {
             return placed;
         }
@@ -64,6 +65,7 @@ impl World {
                     let length = self.net.kinds[kind].length;
                     placed.push((self.net.lane(lane).line.point(0), length));
                     relocate(&self.net, &mut self.vehicles[i], lane, route_index);
+                    self.relocated.push(self.vehicles[i].id);
                 }
                 None => {
                     let v = &mut self.vehicles[i];
@@ -171,6 +173,7 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, route_index: Optio
     crate::lane_change::refresh_first_lanes(net, v);
     v.pose_at = (LaneId::MAX, f64::NAN);
     v.pose = Pose::default();
-    crate::control::update_pose(net, v);
+    v.sideways = Default::default();
+    crate::control::update_pose(net, v, 0.0);
     v.trip.wait = 0.0;
 }

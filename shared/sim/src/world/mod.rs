@@ -144,6 +144,8 @@ pub struct World {
     /// This tick's red-light crossings, and their count over the run.
     red_crossings: Vec<RedLightCrossing>,
     red_crossing_count: u64,
+    /// The vehicles the jam timeout moved on this tick.
+    relocated: Vec<VehicleId>,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
 }
@@ -185,6 +187,7 @@ impl World {
             phase_times: phases::PhaseTimes::default(),
             wait_stats: jams::WaitStats::default(),
             red_crossings: Vec::new(),
+            relocated: Vec::new(),
             red_crossing_count: 0,
             walkers: None,
         }
@@ -247,6 +250,12 @@ impl World {
     /// Stop lines crossed on red in the last tick (see [`RedLightCrossing`]).
     pub fn red_light_crossings_last_tick(&self) -> &[RedLightCrossing] {
         &self.red_crossings
+    }
+
+    /// The vehicles the jam timeout moved ahead along their way this tick
+    /// (SUMO's teleports): they jump on purpose.
+    pub fn relocated_last_tick(&self) -> &[VehicleId] {
+        &self.relocated
     }
 
     /// Stop lines crossed on red over the run so far.

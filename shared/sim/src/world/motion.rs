@@ -133,7 +133,7 @@ fn move_vehicle(
     // One lookup of the lane's limit for the speed step and the trip's time loss.
     let limit = speed_limit(net, v, config);
     step_speed(net, v, config, &stops, limit, dt);
-    update_pose(net, v);
+    update_pose(net, v, v.s - s_before);
     update_trip(v, dt, limit);
     crossed_on_red(net, lights, time, v, s_before)
 }

@@ -260,6 +260,8 @@ impl World {
             front: DVec2::ZERO,
             back: DVec2::ZERO,
             heading: DVec2::X,
+            body_yaw: 0.0,
+            sideways: Default::default(),
             turn_signal: Default::default(),
             should_despawn: false,
             despawn_reason: None,
@@ -271,7 +273,7 @@ impl World {
             },
         };
         v.first_junction_lane = crate::cognition::path::first_junction_lane(&self.net, &v.path);
-        update_pose(&self.net, &mut v);
+        update_pose(&self.net, &mut v, 0.0);
         self.events.push(SimEvent::Spawned {
             id,
             kind: k.name.clone(),

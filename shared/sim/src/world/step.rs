@@ -119,8 +119,7 @@ impl World {
         self.phase_times.lap(Phase::Regroup);
     }
 
-    /// The lane changes routes need, where there is a gap (or where two
-    /// vehicles side by side each want the other's lane: they swap). Planned
+    /// The lane changes routes need, where there is a gap. Planned
     /// against this tick's lane index, then made in id order so that two
     /// vehicles never take the same gap. Returns whether any was made.
     fn change_lanes(&mut self) -> bool {
@@ -143,18 +142,12 @@ impl World {
         let mut moved: Vec<lane_change::Moved> = Vec::new();
         let mut changed = vec![false; self.vehicles.len()];
         for c in candidates {
-            let partner = c.swap_with.map(|(j, _)| j);
-            if changed[c.vehicle]
-                || partner.is_some_and(|j| changed[j])
-                || !self.gap_still_free(&moved, c.vehicle, c.target)
-            {
+            if changed[c.vehicle] || !self.gap_still_free(&moved, c.vehicle, c.target) {
                 continue;
             }
-            for (i, target) in std::iter::once((c.vehicle, c.target)).chain(c.swap_with) {
-                moved.push(lane_change::Moved::of(&self.vehicles[i], target));
-                self.change_lane(i, target);
-                changed[i] = true;
-            }
+            moved.push(lane_change::Moved::of(&self.vehicles[c.vehicle], c.target));
+            self.change_lane(c.vehicle, c.target);
+            changed[c.vehicle] = true;
         }
         // Then the optional ones, into the gaps the needed ones left.
         for c in choices {

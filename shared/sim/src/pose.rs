@@ -1,0 +1,149 @@
+//! The pose drawn: where a viewer, a recording or a perception stack sees the
+//! body. Cognition reads the body as the chord between its bumpers on the path
+//! (see [`crate::control::update_pose`]); the pose published is a car's:
+//!
+//! - the origin (rear axle) lies on the path, so it moves exactly as far as
+//!   the vehicle drives, whatever corners the imported geometry has;
+//! - where the drawn origin would move further than a car's (an imported lane
+//!   that does not start where the one before it ends, a lane change on a
+//!   bend), it keeps a car's step and catches up over the next metres;
+//! - the heading turns toward the body's chord no faster than a car at that
+//!   speed can ([`TURN_RADIUS`]): drawn kinks and hairpins are driven round;
+//! - a lane change moves the path at once, but the body eases across on an
+//!   S-curve that a car could drive at that speed ([`Sideways`]), and while it
+//!   still reaches into the lane it left it stays a body there for those
+//!   coming up behind (the lane index's shadow).
+
+use glam::DVec2;
+
+use crate::cognition::path::point_on_path;
+use crate::network::{LaneId, LaneNetwork};
+use crate::vehicle::{Sideways, Vehicle};
+
+/// The drawn heading turns by at most the distance driven over this, metres:
+/// a little wider than the tightest turn a car makes (4 m at the rear axle).
+pub const TURN_RADIUS: f64 = 4.5;
+/// A lane change's tightest curve, metres (at low speed).
+const LANE_CHANGE_RADIUS: f64 = 5.0;
+/// A lane change's sideways acceleration at speed, m/s²: a comfortable one.
+const LANE_CHANGE_SIDE_ACCEL: f64 = 2.0;
+/// The steepest angle a lane change crosses at, radians.
+const LANE_CHANGE_MAX_ANGLE: f64 = 0.5;
+/// A drawn position off the path (see [`Sideways::residual`]) is eased back
+/// over this many times its distance...
+const EASE_PER_METRE: f64 = 20.0;
+/// ... and over this many metres at least.
+const EASE_MIN: f64 = 2.0;
+/// The drawn origin moves at most this share more than the distance driven...
+const STEP_SPARE: f64 = 0.04;
+/// ... plus this, metres (a body standing still stays put).
+const STEP_SLACK: f64 = 0.002;
+
+/// The pose after the body moved `travelled` metres along its path (0 for a
+/// vehicle just placed: its heading is then the chord's at once).
+pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
+    ease_sideways(&mut v.sideways, v.speed, travelled, v.heading);
+    let normal = v.heading.perp();
+    let on_path = v.front - v.heading * v.front_offset;
+    let side = &mut v.sideways;
+    let mut axle = on_path + normal * side.offset + side.residual;
+    let target = v.body_yaw + side.angle;
+    let was = DVec2::new(v.pose.x, v.pose.y);
+    let yaw = if fresh {
+        target
+    } else {
+        // What the way's shape asks beyond a car's motion (a gap where an
+        // imported lane does not start at the end of the one before, an
+        // offset on a bend) is left over, and eased away as it drives on.
+        let step = axle - was;
+        let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK;
+        if step.length() > most {
+            let drawn = was + step * (most / step.length());
+            side.residual += drawn - axle;
+            axle = drawn;
+        }
+        let most = travelled.max(0.0) / TURN_RADIUS;
+        let turn = wrap(target - v.pose.yaw).clamp(-most, most);
+        wrap(v.pose.yaw + turn)
+    };
+    v.pose = crate::vehicle::Pose {
+        x: axle.x,
+        y: axle.y,
+        z,
+        yaw,
+    };
+}
+
+/// The path has just moved from `from` onto the lane beside it: the body
+/// starts the way across from where it is drawn, and stays a body on `from`
+/// while it reaches into it.
+pub fn start_sideways(net: &LaneNetwork, v: &mut Vehicle, from: LaneId) {
+    // Across and along the body's chord on the new lane.
+    let (front, _) = point_on_path(net, v, 0.0);
+    let (back, _) = point_on_path(net, v, -v.length);
+    let heading = (front - back).normalize_or(v.heading);
+    let normal = heading.perp();
+    let from_path = DVec2::new(v.pose.x, v.pose.y) - (front - heading * v.front_offset);
+    let offset = from_path.dot(normal);
+    let across = offset - v.sideways.offset;
+    v.sideways.offset = offset;
+    v.sideways.residual = from_path - normal * offset;
+    // The body reaches into `from` while its edge is past the line halfway
+    // between the two lanes' centres.
+    let clear = (0.5 * (across.abs() - v.width)).max(0.0);
+    v.sideways.shadow = (v.sideways.offset.abs() > clear).then_some((from, clear));
+}
+
+/// One step of the way across: the heading relative to the path turns
+/// toward the angle from which, turning back as tightly, the body ends on
+/// the centreline, and the offset follows the heading. Driving at an angle
+/// to the path, the body falls behind its place on it (`along` is the
+/// path's direction): that joins the residual.
+fn ease_sideways(side: &mut Sideways, speed: f64, travelled: f64, along: DVec2) {
+    if travelled <= 0.0 {
+        return;
+    }
+    let residual = side.residual.length();
+    if residual > 0.0 {
+        side.residual *= (1.0 - travelled / ease_length(residual)).max(0.0);
+    }
+    if side.offset == 0.0 && side.angle == 0.0 {
+        return;
+    }
+    let radius = (speed * speed / LANE_CHANGE_SIDE_ACCEL).max(LANE_CHANGE_RADIUS);
+    let turn = travelled / radius;
+    // Turning back from angle a covers radius (1 - cos a) sideways.
+    let steepest = (1.0 - side.offset.abs() / radius).max(-1.0).acos();
+    let wanted = -side.offset.signum() * steepest.min(LANE_CHANGE_MAX_ANGLE);
+    side.angle += (wanted - side.angle).clamp(-turn, turn);
+    let before = side.offset;
+    side.offset += travelled * side.angle.sin();
+    side.residual -= along * (travelled * (1.0 - side.angle.cos()));
+    if side.offset * before <= 0.0 {
+        // On the centreline (or just past it): the change is done.
+        side.offset = 0.0;
+        side.angle = 0.0;
+    }
+    if side
+        .shadow
+        .is_some_and(|(_, clear)| side.offset.abs() <= clear)
+    {
+        side.shadow = None;
+    }
+}
+
+/// Metres over which a drawn position eases `distance` metres back onto the
+/// path: a few centimetres per metre driven.
+fn ease_length(distance: f64) -> f64 {
+    (distance * EASE_PER_METRE).max(EASE_MIN)
+}
+
+/// An angle in (-π, π].
+fn wrap(a: f64) -> f64 {
+    let a = a.rem_euclid(std::f64::consts::TAU);
+    if a > std::f64::consts::PI {
+        a - std::f64::consts::TAU
+    } else {
+        a
+    }
+}
