@@ -5,6 +5,7 @@ Usage: external_simulator.py ENDPOINT CLUSTER MAP_JSON. Prints OK and exits 0 wh
   light states arrive and decode;
 - every vehicle's box, drawn from the batch alone (position, yaw, size and front
   offset), lies on its lane of the map file;
+- from batch to batch no vehicle moves further than its speed allows;
 - an external simulator's proposal is spawned (its result names a vehicle
   that the stepper's events report as spawned on that lane);
 - when two external simulators propose on the same lane at once, the one
@@ -187,6 +188,30 @@ for v in batch["vehicles"]:
     )
     if near > room:
         fail(f"vehicle {v['id']}'s box centre {centre} is {near:.2f} m off its lane {lane['name']}")
+
+# Motion is continuous, judged from the batches alone: from one batch to the
+# next, no vehicle's origin moves further than its speed allows over the time
+# between them (+ 5 cm, as `sim --check` bounds it).
+wait("a hundred vehicle batches", lambda: len(batches) >= 100, 30)
+with lock:
+    seen = list(batches)
+steps = 0
+for a, b in zip(seen, seen[1:]):
+    dt = b["time"] - a["time"]
+    if dt <= 0:
+        continue
+    was = {v["id"]: v for v in a["vehicles"]}
+    for v in b["vehicles"]:
+        u = was.get(v["id"])
+        if u is None:
+            continue
+        moved = math.hypot(v["x"] - u["x"], v["y"] - u["y"])
+        bound = max(u["speed"], v["speed"]) * dt + 0.05
+        if moved > bound:
+            fail(f"vehicle {v['id']} jumped {moved:.3f} m in {dt:.3f} s at {v['speed']:.2f} m/s (bound {bound:.3f})")
+        steps += 1
+if steps < 100:
+    fail(f"only {steps} vehicle steps seen between batches")
 
 # Light states: the current ones by query, changes by subscription.
 for reply in session.get(f"{CLUSTER}/lights/state/*"):
