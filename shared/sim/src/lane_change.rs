@@ -130,6 +130,22 @@ impl<'c> Gaps<'c> {
 /// abreast of where it was (more means the projection found another part of
 /// a winding lane).
 const MAX_ABREAST_SHIFT: f64 = 3.0;
+/// Metres a vehicle swinging out of a queue keeps from the body ahead on the
+/// lane it leaves, passing beside that body's corner.
+const SWING_OUT_CLEARANCE: f64 = 0.5;
+
+/// How much closer than behind it in a queue a vehicle swinging out of it may
+/// come to the body ahead on the lane it leaves: the gap it keeps at
+/// standstill (a realistic driver's minimum gap, the reference's 4 m) less
+/// [`SWING_OUT_CLEARANCE`].
+pub fn swing_out_allowance(net: &LaneNetwork, v: &Vehicle, config: &NpcVehicleConfig) -> f64 {
+    let kept = match crate::control::driver_model(net, v, config) {
+        DriverModel::Awsim => MIN_FRONT_VEHICLE_DISTANCE,
+        DriverModel::Realistic(idm) => idm.min_gap,
+    };
+    (kept - SWING_OUT_CLEARANCE).max(0.0)
+}
+
 /// A waiting lane changer slower than this, m/s, is given a gap.
 const URGENT_SPEED: f64 = 3.0;
 /// A waiting lane changer this near its lane's end, metres, is given a gap.

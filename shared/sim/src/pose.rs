@@ -43,6 +43,12 @@ const STEP_SLACK: f64 = 0.002;
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     ease_sideways(&mut v.sideways, v.speed, travelled, v.heading);
+    if let Some((_, clear)) = v.sideways.shadow {
+        let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
+        if front.max(rear) <= clear || v.sideways.offset == 0.0 {
+            v.sideways.shadow = None;
+        }
+    }
     let normal = v.heading.perp();
     let on_path = v.front - v.heading * v.front_offset;
     let side = &mut v.sideways;
@@ -88,9 +94,9 @@ pub fn start_sideways(net: &LaneNetwork, v: &mut Vehicle, from: LaneId) {
     let across = offset - v.sideways.offset;
     v.sideways.offset = offset;
     v.sideways.residual = from_path - normal * offset;
-    // The body reaches into `from` while its edge is past the line halfway
-    // between the two lanes' centres.
-    let clear = (0.5 * (across.abs() - v.width)).max(0.0);
+    // An end of the body reaches a body of its width on `from` while it lies
+    // further across than the two lanes' distance less a width.
+    let clear = (across.abs() - v.width).max(0.0);
     v.sideways.shadow = (v.sideways.offset.abs() > clear).then_some((from, clear));
 }
 
@@ -123,12 +129,6 @@ fn ease_sideways(side: &mut Sideways, speed: f64, travelled: f64, along: DVec2) 
         // On the centreline (or just past it): the change is done.
         side.offset = 0.0;
         side.angle = 0.0;
-    }
-    if side
-        .shadow
-        .is_some_and(|(_, clear)| side.offset.abs() <= clear)
-    {
-        side.shadow = None;
     }
 }
 

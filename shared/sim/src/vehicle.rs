@@ -64,10 +64,24 @@ pub struct Sideways {
     /// What is left of where it was drawn along the way (the lanes' shapes
     /// are not parallel everywhere), eased away as it drives on.
     pub residual: DVec2,
-    /// The lane it left, while its body still reaches into it, and the
-    /// offset under which it no longer does: a body on that lane for those
-    /// coming up behind there.
+    /// The lane it left, while its body still reaches into it, and how far
+    /// across toward it an end of the body (the bumper's centre) may lie
+    /// without reaching a body of its width there: a body on that lane for
+    /// those coming up behind there.
     pub shadow: Option<(LaneId, f64)>,
+}
+
+impl Sideways {
+    /// How far across toward the lane left the front and the rear bumper's
+    /// centres lie, metres: the front swings out first, the rear last.
+    pub fn ends_across(&self, front_offset: f64, length: f64) -> (f64, f64) {
+        let toward = self.offset.signum();
+        let sin = self.angle.sin();
+        (
+            (self.offset + front_offset * sin) * toward,
+            (self.offset - (length - front_offset) * sin) * toward,
+        )
+    }
 }
 
 /// The zebra-crossing fields of the crosswalk document.
@@ -236,10 +250,8 @@ impl Vehicle {
     pub fn front_in_lane_left(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
         let lane = self.shadow_lane(net)?;
         let (_, clear) = self.sideways.shadow?;
-        // Across from the path toward the lane left (the offset's side).
-        let side = self.sideways.offset.signum();
-        let front = self.sideways.offset + self.front_offset * self.sideways.angle.sin();
-        (front * side > clear).then_some(lane)
+        let (front, _) = self.sideways.ends_across(self.front_offset, self.length);
+        (front > clear).then_some(lane)
     }
 
     /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.

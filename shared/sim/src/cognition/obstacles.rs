@@ -90,12 +90,17 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         }
     }
     // A lane change under way: while its front still reaches into the lane
-    // it left, it keeps behind the body ahead there too.
+    // it left, it keeps behind the body ahead there too, closer than in a
+    // queue, as it swings out past that body's corner.
     if let Some(left) = v.front_in_lane_left(net) {
-        best = best.nearer(search.leader_on(LaneAhead {
+        let ahead = search.leader_on(LaneAhead {
             lane: left,
             offset: -v.s,
-        }));
+        });
+        best = best.nearer(FrontObstacle {
+            distance: ahead.distance + lane_change::swing_out_allowance(net, v, snap.config),
+            ..ahead
+        });
     }
     // A lane change the route needs and has not found a gap for: wait before
     // the lane's end.
