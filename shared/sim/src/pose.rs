@@ -43,17 +43,17 @@ const STEP_SLACK: f64 = 0.002;
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     ease_sideways(&mut v.sideways, v.speed, travelled, v.heading);
-    if let Some((_, clear)) = v.sideways.shadow {
+    if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
-        if front.max(rear) <= clear || v.sideways.offset == 0.0 {
-            v.sideways.shadow = None;
+        if front.max(rear) <= v.sideways.reach || v.sideways.offset == 0.0 {
+            v.shadow = None;
         }
     }
     let normal = v.heading.perp();
     let on_path = v.front - v.heading * v.front_offset;
     let side = &mut v.sideways;
     let mut axle = on_path + normal * side.offset + side.residual;
-    let target = v.body_yaw + side.angle;
+    let target = wrap(v.body_yaw + side.angle);
     let was = DVec2::new(v.pose.x, v.pose.y);
     let yaw = if fresh {
         target
@@ -96,8 +96,8 @@ pub fn start_sideways(net: &LaneNetwork, v: &mut Vehicle, from: LaneId) {
     v.sideways.residual = from_path - normal * offset;
     // An end of the body reaches a body of its width on `from` while it lies
     // further across than the two lanes' distance less a width.
-    let clear = (across.abs() - v.width).max(0.0);
-    v.sideways.shadow = (v.sideways.offset.abs() > clear).then_some((from, clear));
+    v.sideways.reach = (across.abs() - v.width).max(0.0);
+    v.shadow = (v.sideways.offset.abs() > v.sideways.reach).then_some(from);
 }
 
 /// One step of the way across: the heading relative to the path turns
@@ -138,11 +138,14 @@ fn ease_length(distance: f64) -> f64 {
     (distance * EASE_PER_METRE).max(EASE_MIN)
 }
 
-/// An angle in (-π, π].
+/// An angle in (-π, π]. Those given here are sums and differences of two
+/// such angles: one turn either way brings them back (no division).
 fn wrap(a: f64) -> f64 {
-    let a = a.rem_euclid(std::f64::consts::TAU);
-    if a > std::f64::consts::PI {
-        a - std::f64::consts::TAU
+    use std::f64::consts::{PI, TAU};
+    if a > PI {
+        a - TAU
+    } else if a <= -PI {
+        a + TAU
     } else {
         a
     }

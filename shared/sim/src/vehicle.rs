@@ -64,11 +64,9 @@ pub struct Sideways {
     /// What is left of where it was drawn along the way (the lanes' shapes
     /// are not parallel everywhere), eased away as it drives on.
     pub residual: DVec2,
-    /// The lane it left, while its body still reaches into it, and how far
-    /// across toward it an end of the body (the bumper's centre) may lie
-    /// without reaching a body of its width there: a body on that lane for
-    /// those coming up behind there.
-    pub shadow: Option<(LaneId, f64)>,
+    /// How far across toward the lane left an end of the body (the bumper's
+    /// centre) may lie without reaching a body of its width there.
+    pub reach: f64,
 }
 
 impl Sideways {
@@ -168,8 +166,10 @@ pub struct Vehicle {
     /// The lane beside path[0] that the route goes on from (a lane change it
     /// needs), kept up to date as the path changes.
     pub lane_change: Option<LaneId>,
-    /// A lane change under way as the body is drawn.
-    pub sideways: Sideways,
+    /// The lane it left in a lane change, while its body still reaches into
+    /// it: a body on that lane for those coming up behind there (see
+    /// [`Sideways`]).
+    pub shadow: Option<LaneId>,
     /// Set by deadlock breaking: ignore lane rules while entering this junction.
     pub forced_through: Option<u32>,
     pub should_despawn: bool,
@@ -206,6 +206,8 @@ pub struct Vehicle {
     // Control and Visualization outputs.
     pub acceleration: f64,
     pub pose: Pose,
+    /// A lane change under way as the body is drawn.
+    pub sideways: Sideways,
     pub turn_signal: TurnSignal,
 
     // Read on spawn, branch choices and despawn only.
@@ -238,7 +240,7 @@ impl Vehicle {
     /// The lane it left in a lane change while its body still reaches into
     /// it, as long as it is on the lane it moved onto.
     pub fn shadow_lane(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
-        let (lane, _) = self.sideways.shadow?;
+        let lane = self.shadow?;
         net.lane(self.path[0])
             .siblings
             .contains(&lane)
@@ -249,9 +251,8 @@ impl Vehicle {
     /// it: it keeps behind the body ahead there.
     pub fn front_in_lane_left(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
         let lane = self.shadow_lane(net)?;
-        let (_, clear) = self.sideways.shadow?;
         let (front, _) = self.sideways.ends_across(self.front_offset, self.length);
-        (front > clear).then_some(lane)
+        (front > self.sideways.reach).then_some(lane)
     }
 
     /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.

@@ -174,6 +174,7 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, route_index: Optio
     v.pose_at = (LaneId::MAX, f64::NAN);
     v.pose = Pose::default();
     v.sideways = Default::default();
+    v.shadow = None;
     crate::control::update_pose(net, v, 0.0);
     v.trip.wait = 0.0;
 }

@@ -262,6 +262,7 @@ impl World {
             heading: DVec2::X,
             body_yaw: 0.0,
             sideways: Default::default(),
+            shadow: None,
             turn_signal: Default::default(),
             should_despawn: false,
             despawn_reason: None,
