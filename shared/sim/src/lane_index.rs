@@ -89,8 +89,11 @@ impl ChunkItems {
     fn add(&mut self, net: &LaneNetwork, v: &Vehicle, i: u32) {
         let items = &mut self.occupants;
         let first_item = items.len();
+        // Where the body is drawn behind its place (see Vehicle::drawn_lag),
+        // those behind keep clear of it there.
+        let rear = v.rear_s() - v.drawn_lag();
         let body = |ghost| Occupant {
-            rear: v.rear_s(),
+            rear,
             front: v.s,
             speed: v.speed,
             vehicle: i,
@@ -104,10 +107,10 @@ impl ChunkItems {
             self.lane_changers.push(i);
             items.push((target, body(true)));
         }
-        if v.rear_s() < 0.0
+        if rear < 0.0
             && let Some(p) = v.behind.latest()
         {
-            push_tail(net, items, p, v.rear_s(), v.s, v.speed, i);
+            push_tail(net, items, p, rear, v.s, v.speed, i);
         }
         let blocked = &mut self.blocked;
         for &(lane, occ) in items[first_item..].iter().filter(|(_, o)| !o.ghost) {

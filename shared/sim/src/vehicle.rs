@@ -255,6 +255,13 @@ impl Vehicle {
         (front > self.sideways.reach).then_some(lane)
     }
 
+    /// Metres the body is drawn behind its place on the path, at most: what
+    /// the drawing has left over to catch up (see [`Sideways::residual`]).
+    pub fn drawn_lag(&self) -> f64 {
+        let r = self.sideways.residual;
+        if r == DVec2::ZERO { 0.0 } else { r.length() }
+    }
+
     /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.
     pub fn rear_s(&self) -> f64 {
         self.s - self.length
