@@ -2,11 +2,11 @@
 //! body. Cognition reads the body as the chord between its bumpers on the path
 //! (see [`crate::control::update_pose`]); the pose published is a car's:
 //!
-//! - the origin (rear axle) lies on the path, so it moves exactly as far as
-//!   the vehicle drives, whatever corners the imported geometry has;
-//! - where the drawn origin would move further than a car's (an imported lane
-//!   that does not start where the one before it ends, a lane change on a
-//!   bend), it keeps a car's step and catches up over the next metres;
+//! - the origin (rear axle) lies on that chord, but where it would move
+//!   further than a car's (an imported lane that does not start where the one
+//!   before it ends, a body spanning a drawn hairpin, a lane change on a
+//!   bend), it keeps a car's step and catches up over the next metres, and
+//!   those behind keep clear of where it is drawn (`Vehicle::drawn_lag`);
 //! - the heading turns toward the body's chord no faster than a car at that
 //!   speed can ([`TURN_RADIUS`]): drawn kinks and hairpins are driven round;
 //! - a lane change moves the path at once, but the body eases across on an
