@@ -200,10 +200,7 @@ pub fn blockers(
     target: LaneId,
     config: &NpcVehicleConfig,
 ) -> Vec<u32> {
-    blockers_except(index, v, target, Gaps::of(net, v, config))
-}
-
-fn blockers_except(index: &LaneIndex, v: &Vehicle, target: LaneId, gaps: Gaps) -> Vec<u32> {
+    let gaps = Gaps::of(net, v, config);
     index
         .on_lane(target)
         .iter()
