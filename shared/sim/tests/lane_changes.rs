@@ -9,26 +9,6 @@ use trafficmesh_model::LightColor;
 use trafficmesh_sim::lights::LightControl;
 use trafficmesh_sim::{World, WorldConfig};
 
-/// Two eastbound lanes side by side, 3.2 m apart, each going on through its own
-/// junction lane to its own exit.
-fn two_lane_road() -> trafficmesh_model::MapFile {
-    let mut j0 = lane("j0", &[[200.0, 0.0], [220.0, 0.0]], &["x0"]);
-    let mut j1 = lane("j1", &[[200.0, 3.2], [220.0, 3.2]], &["x1"]);
-    j0["intersection"] = json!(true);
-    j1["intersection"] = json!(true);
-    map(
-        vec![
-            lane("a0", &[[0.0, 0.0], [200.0, 0.0]], &["j0"]),
-            lane("a1", &[[0.0, 3.2], [200.0, 3.2]], &["j1"]),
-            j0,
-            j1,
-            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &[]),
-            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &[]),
-        ],
-        json!({}),
-    )
-}
-
 fn lane_of(world: &World, id: u64) -> &str {
     let v = vehicle(world, id);
     &world.network().lane(v.path[0]).name
