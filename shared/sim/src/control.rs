@@ -170,21 +170,28 @@ impl LimitsAhead {
 /// How far ahead a lower lane limit is slowed for, metres.
 const LIMIT_LOOKAHEAD: f64 = 100.0;
 
-/// Recomputes front and back points and the body's heading from the arc
-/// position, then the pose drawn ([`crate::pose::draw`]), the body having
-/// moved `travelled` metres since. Both bumpers sit on the path and the body
-/// is the chord between them, so a long vehicle cuts a curve slightly on the
-/// inside instead of swinging its tail into the next lane.
+/// Recomputes the body from the arc position ([`place_body`]), then the pose
+/// drawn ([`crate::pose::draw`]), the body having moved `travelled` metres
+/// since.
 ///
 /// A function of the lane and arc position alone, so a vehicle standing
 /// where it stood last tick (queued, or held at a light) keeps it.
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, travelled: f64) {
-    let at = (v.path[0], v.s);
-    if v.pose_at == at {
+    if v.pose_at == (v.path[0], v.s) {
         return;
     }
     let fresh = v.pose_at.1.is_nan();
-    v.pose_at = at;
+    let z = place_body(net, v, fresh);
+    crate::pose::draw(v, travelled, fresh, z);
+}
+
+/// Front and back points, the body's heading and its angle from the arc
+/// position (noted in `pose_at`); returns the body's height. Both bumpers
+/// sit on the path and the body is the chord between them, so a long vehicle
+/// cuts a curve slightly on the inside instead of swinging its tail into the
+/// next lane. `fresh`: placed just now, with no heading before.
+pub fn place_body(net: &LaneNetwork, v: &mut Vehicle, fresh: bool) -> f64 {
+    v.pose_at = (v.path[0], v.s);
     let (front, z_front) = point_on_path(net, v, 0.0);
     let (back, z_back) = point_on_path(net, v, -v.length);
     let body = front - back;
@@ -200,5 +207,5 @@ pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, travelled: f64) {
     }
     v.front = front;
     v.back = back;
-    crate::pose::draw(v, travelled, fresh, 0.5 * (z_front + z_back));
+    0.5 * (z_front + z_back)
 }

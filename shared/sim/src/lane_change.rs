@@ -224,9 +224,9 @@ pub fn clear_of(moved: &[Moved], v: &Vehicle, target: LaneId, gaps: Gaps) -> boo
 }
 
 /// Moves the vehicle onto `target`, its front bumper where it is abreast
-/// (lanes beside each other on a bend differ in length); its body eases
-/// across as it drives on, a body on the lane it left meanwhile (see
-/// [`crate::pose`]).
+/// (lanes beside each other on a bend differ in length), and places its body
+/// there for those who look from now on; the body drawn eases across as it
+/// drives on, a body on the lane it left meanwhile (see [`crate::pose`]).
 pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
     let from = v.path[0];
     let old = net.lane(from).length();
@@ -237,7 +237,8 @@ pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
         // Wholly on the lane it changed from, wholly on the new one.
         v.s = abreast.max(v.length.min(v.s));
     }
-    crate::pose::start_sideways(net, v, from);
+    crate::control::place_body(net, v, false);
+    crate::pose::start_sideways(v, from);
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
     // The target leads to path[1]: no further change is pending.
     refresh_first_lanes(net, v);

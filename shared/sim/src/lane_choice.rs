@@ -46,7 +46,7 @@ pub struct Choice {
     /// The lanes after the target, up to and including the planned lane
     /// where the new way rejoins the old.
     pub via: Vec<LaneId>,
-    /// Where that lane is among the lanes ahead (see [`lanes_ahead`]).
+    /// Where that lane is among the lanes ahead (see [`Vehicle::way_ahead`]).
     pub rejoins: usize,
 }
 
@@ -119,7 +119,11 @@ pub fn choose(
     if shorter.is_empty() {
         return None;
     }
-    let ahead: Vec<LaneId> = lanes_ahead(v).take(MAX_LANES_AHEAD + 1).collect();
+    let ahead: Vec<LaneId> = v
+        .way_ahead()
+        .map(|(lane, _)| lane)
+        .take(MAX_LANES_AHEAD + 1)
+        .collect();
     // Nothing binds the lanes after the last known one (the route ends there,
     // or there is none and the driver picks its way as it goes): a way may
     // end beside it.
@@ -143,11 +147,11 @@ pub fn choose(
 /// Does traffic move on `lane` ahead of arc length `s`: the nearest body ahead
 /// is far, or moving?
 fn flowing(index: &LaneIndex, lane: LaneId, s: f64) -> bool {
+    // Sorted by rear: the first ahead is the nearest.
     index
         .on_lane(lane)
         .iter()
-        .filter(|o| o.rear > s)
-        .min_by(|a, b| a.rear.total_cmp(&b.rear))
+        .find(|o| o.rear > s)
         .is_none_or(|o| o.rear - s > FREE_AHEAD || o.speed > FLOWING_SPEED)
 }
 
@@ -165,17 +169,6 @@ fn queue_ahead(index: &LaneIndex, lane: LaneId, s: f64) -> f64 {
             }
         })
         .sum()
-}
-
-/// The lanes the vehicle will drive after its current one: the rest of its
-/// path, then the rest of its route.
-fn lanes_ahead(v: &Vehicle) -> impl Iterator<Item = LaneId> + '_ {
-    let route = v
-        .route
-        .iter()
-        .flat_map(|r| r.lanes.iter().skip(r.index + 1))
-        .copied();
-    v.path.iter().skip(1).copied().chain(route)
 }
 
 /// The way on from `from` without lane changes, through junction lanes and

@@ -32,7 +32,7 @@ mod parallel;
 pub mod pedestrians;
 #[cfg(any(test, feature = "bench"))]
 pub mod populate;
-pub mod pose;
+mod pose;
 mod prefetch;
 mod rng;
 pub mod session;

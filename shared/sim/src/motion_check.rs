@@ -10,7 +10,7 @@ use glam::DVec2;
 use trafficmesh_model::SpeedLimitSource;
 
 use crate::World;
-use crate::geometry::{box_corners, boxes_overlap};
+use crate::geometry::{angle_between, box_corners, boxes_overlap};
 use crate::vehicle::{Vehicle, VehicleId};
 
 /// Metres a pose may move beyond its speed times the tick: rounding, and the
@@ -147,12 +147,6 @@ impl MotionCheck {
             self.overlaps.add(finding(va, Some(vb.id), 1.0, 0.0));
         }
     }
-}
-
-/// The smallest angle between two headings, radians.
-fn angle_between(a: f64, b: f64) -> f64 {
-    let d = (b - a).rem_euclid(std::f64::consts::TAU);
-    d.min(std::f64::consts::TAU - d)
 }
 
 /// The vehicle's footprint, shrunk by `margin` on every side: the centreline

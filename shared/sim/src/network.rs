@@ -367,7 +367,7 @@ impl LaneNetwork {
     }
 
     /// Is `other` a sibling of `lane` right beside it, not one further across?
-    /// A lane change moves a body across at once, so only to such a lane.
+    /// A lane change crosses one lane at a time, so only to such a lane.
     pub fn beside(&self, lane: LaneId, other: LaneId) -> bool {
         let l = self.lane(lane);
         l.siblings.contains(&other)

@@ -16,13 +16,12 @@
 
 use glam::DVec2;
 
-use crate::cognition::path::point_on_path;
-use crate::network::{LaneId, LaneNetwork};
+use crate::network::LaneId;
 use crate::vehicle::{Sideways, Vehicle};
 
 /// The drawn heading turns by at most the distance driven over this, metres:
 /// a little wider than the tightest turn a car makes (4 m at the rear axle).
-pub const TURN_RADIUS: f64 = 4.5;
+const TURN_RADIUS: f64 = 4.5;
 /// A lane change's tightest curve, metres (at low speed).
 const LANE_CHANGE_RADIUS: f64 = 5.0;
 /// A lane change's sideways acceleration at speed, m/s²: a comfortable one.
@@ -80,16 +79,13 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     };
 }
 
-/// The path has just moved from `from` onto the lane beside it: the body
-/// starts the way across from where it is drawn, and stays a body on `from`
-/// while it reaches into it.
-pub fn start_sideways(net: &LaneNetwork, v: &mut Vehicle, from: LaneId) {
+/// The body has just been placed on the lane beside `from`: it starts the
+/// way across from where it is drawn, and stays a body on `from` while it
+/// reaches into it.
+pub fn start_sideways(v: &mut Vehicle, from: LaneId) {
     // Across and along the body's chord on the new lane.
-    let (front, _) = point_on_path(net, v, 0.0);
-    let (back, _) = point_on_path(net, v, -v.length);
-    let heading = (front - back).normalize_or(v.heading);
-    let normal = heading.perp();
-    let from_path = DVec2::new(v.pose.x, v.pose.y) - (front - heading * v.front_offset);
+    let normal = v.heading.perp();
+    let from_path = DVec2::new(v.pose.x, v.pose.y) - (v.front - v.heading * v.front_offset);
     let offset = from_path.dot(normal);
     let across = offset - v.sideways.offset;
     v.sideways.offset = offset;

@@ -114,6 +114,15 @@ pub struct RouteProgress {
     pub leave_at_end: bool,
 }
 
+/// Where a lane of a vehicle's way ahead is held (see [`Vehicle::way_ahead`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum WayPlace {
+    /// Its index in the path.
+    Path(usize),
+    /// Its index in the route, beyond the lanes the path holds.
+    Route(usize),
+}
+
 /// The first junction lane of a vehicle's path, kept up to date as lanes are
 /// appended and dropped so that right of way need not walk the path each tick.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -193,7 +202,7 @@ pub struct Vehicle {
     pub body_yaw: f64,
     pub back: DVec2,
     pub front_offset: f64,
-    /// (path[0], s) when the pose was last computed; NaN before the first.
+    /// (path[0], s) when the body was last placed; NaN before the first.
     pub pose_at: (LaneId, f64),
 
     // The rest of cognition's outputs.
@@ -253,6 +262,18 @@ impl Vehicle {
         let lane = self.shadow_lane(net)?;
         let (front, _) = self.sideways.ends_across(self.front_offset, self.length);
         (front > self.sideways.reach).then_some(lane)
+    }
+
+    /// The lanes it will drive after its current one, each with where it is
+    /// held: the rest of its path, then the rest of its route. (After a lane
+    /// change the path's lanes need not be the route's, so the route is not
+    /// searched for the lane it is on.)
+    pub fn way_ahead(&self) -> impl Iterator<Item = (LaneId, WayPlace)> + '_ {
+        let route = self.route.iter().flat_map(|r| {
+            (r.index + 1..r.lanes.len()).map(move |k| (r.lanes[k], WayPlace::Route(k)))
+        });
+        let path = self.path.iter().enumerate().skip(1);
+        path.map(|(k, &l)| (l, WayPlace::Path(k))).chain(route)
     }
 
     /// Metres the body is drawn behind its place on the path, at most: what

@@ -233,3 +233,50 @@ fn a_vehicle_does_not_follow_a_car_into_the_box_that_will_stop_at_its_exit() {
         v.s
     );
 }
+
+/// The jam timeout moves a vehicle ahead along the way it drives, also after
+/// a lane change took it off its route's planned lanes: onto the road beyond
+/// the block, never back to a lane of its route it has passed.
+#[test]
+fn a_jammed_vehicle_that_changed_lanes_is_moved_ahead_not_back() {
+    let mut m = serde_json::to_value(two_lane_road()).unwrap();
+    let lanes = m["lanes"].as_array_mut().unwrap();
+    let mut jw = lane("jw", &[[-20.0, 0.0], [0.0, 0.0]], &["a0"]);
+    jw["intersection"] = json!(true);
+    lanes.push(lane("w", &[[-200.0, 0.0], [-20.0, 0.0]], &["jw"]));
+    lanes.push(jw);
+    // A zebra across both lanes just before their junction, held for good.
+    m["crosswalks"] = json!([{
+        "name": "Zebra",
+        "area": { "shape": "box", "center": [190.0, 1.6], "half_extents": [2.0, 4.0] },
+        "stop_points": [{ "position": [185.0, 0.0] }, { "position": [185.0, 3.2] }]
+    }]);
+    let m: MapFile = serde_json::from_value(m).unwrap();
+    let config = WorldConfig {
+        jam_timeout: 120.0,
+        ..WorldConfig::default()
+    };
+    let mut w = world(&m, config);
+    let id = w
+        .place_vehicle_on_route("Taxi", &["w", "jw", "a0", "j1", "x1"], 100.0, 10.0)
+        .unwrap();
+    w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+        .unwrap();
+    let a1 = w.network().lane_id("a1").unwrap();
+    assert!(
+        run_until(&mut w, 60.0, |w| vehicle(w, id).path[0] == a1),
+        "it changes onto a1 on its way"
+    );
+    assert!(
+        run_until(&mut w, 200.0, |w| w.wait_stats().jam_resolutions == 1),
+        "it stands at the zebra until its timeout"
+    );
+    let v = vehicle(&w, id);
+    assert_eq!(
+        w.network().lane(v.path[0]).name,
+        "x1",
+        "moved beyond the zebra"
+    );
+    assert!(v.pose.x >= 220.0, "its body is on x1: x {}", v.pose.x);
+    assert_eq!(w.wait_stats().jam_removals, 0);
+}

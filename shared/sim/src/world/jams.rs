@@ -11,7 +11,7 @@ use super::World;
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
 use crate::network::{LaneId, LaneNetwork};
-use crate::vehicle::{LanesBehind, Pose, Vehicle};
+use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
 
 /// Ticks between looks for jammed vehicles: a timeout is minutes long, and
 /// the look reads every vehicle.
@@ -61,10 +61,10 @@ impl World {
                 .into_iter()
                 .find(|&(lane, _)| self.is_spawnable(kind, lane, &placed));
             match target {
-                Some((lane, route_index)) => {
+                Some((lane, place)) => {
                     let length = self.net.kinds[kind].length;
                     placed.push((self.net.lane(lane).line.point(0), length));
-                    relocate(&self.net, &mut self.vehicles[i], lane, route_index);
+                    relocate(&self.net, &mut self.vehicles[i], lane, place);
                     self.relocated.push(self.vehicles[i].id);
                 }
                 None => {
@@ -129,46 +129,38 @@ fn is_jammed_head(net: &LaneNetwork, v: &Vehicle) -> bool {
 }
 
 /// The lanes a jammed vehicle may be moved to, nearest first: the ordinary
-/// (non-junction) lanes of its route after the one it is on, or, without a
-/// route, of its path. Each with its index in the route.
-fn lanes_ahead(net: &LaneNetwork, v: &Vehicle) -> Vec<(LaneId, Option<usize>)> {
-    // (index in the route, lane); the path's lanes have no route index.
-    let ahead: Vec<(Option<usize>, LaneId)> = match &v.route {
-        Some(route) => {
-            let here = route
-                .lanes
-                .iter()
-                .position(|&l| l == v.path[0])
-                .unwrap_or(0);
-            (here + 1..route.lanes.len())
-                .map(|k| (Some(k), route.lanes[k]))
-                .collect()
-        }
-        None => v.path[1..].iter().map(|&l| (None, l)).collect(),
-    };
-    ahead
-        .into_iter()
-        .filter(|&(_, l)| !net.lane(l).intersection)
-        .map(|(k, l)| (l, k))
+/// (non-junction) lanes of its way ahead, each with where it is held.
+fn lanes_ahead(net: &LaneNetwork, v: &Vehicle) -> Vec<(LaneId, WayPlace)> {
+    v.way_ahead()
+        .filter(|&(l, _)| !net.lane(l).intersection)
         .collect()
 }
 
 /// Puts the vehicle at the start of `lane`, rear bumper at 0, standing, with
-/// its path, route progress and cached facts begun again from there.
-fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, route_index: Option<usize>) {
-    v.path.clear();
-    v.path.push(lane);
-    v.path_length = net.lane(lane).length();
-    v.s = v.length.min(v.path_length);
+/// its path (what it held beyond `lane`, or the route from there on), route
+/// progress and cached facts begun again from there.
+fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, place: WayPlace) {
+    match place {
+        WayPlace::Path(k) => {
+            v.path.drain(..k);
+        }
+        WayPlace::Route(k) => {
+            v.path.clear();
+            v.path.push(lane);
+            if let Some(route) = &mut v.route {
+                route.index = k;
+            }
+        }
+    }
+    v.path_length = v.path.iter().map(|&l| net.lane(l).length()).sum();
+    let lane_length = net.lane(lane).length();
+    v.s = v.length.min(lane_length);
     v.speed = 0.0;
     v.acceleration = 0.0;
     v.behind = LanesBehind::default();
     v.forced_through = None;
     v.yield_phase = Default::default();
     v.dominating = None;
-    if let (Some(route), Some(k)) = (&mut v.route, route_index) {
-        route.index = k;
-    }
     v.first_junction_lane = first_junction_lane(net, &v.path);
     crate::lane_change::refresh_first_lanes(net, v);
     v.pose_at = (LaneId::MAX, f64::NAN);

@@ -139,25 +139,21 @@ impl World {
         }
         candidates.sort_by_key(|c| vehicles[c.vehicle].id);
         choices.sort_by_key(|c| vehicles[c.vehicle].id);
+        // The needed ones first, then the optional ones into the gaps they
+        // left. No vehicle is in both: a driver with a change pending makes
+        // no choice.
+        let needed = candidates.into_iter().map(|c| (c.vehicle, c.target, None));
+        let optional = choices.into_iter().map(|c| (c.vehicle, c.target, Some(c)));
         let mut moved: Vec<lane_change::Moved> = Vec::new();
-        let mut changed = vec![false; self.vehicles.len()];
-        for c in candidates {
-            if changed[c.vehicle] || !self.gap_still_free(&moved, c.vehicle, c.target) {
+        for (i, target, choice) in needed.chain(optional) {
+            if !self.gap_still_free(&moved, i, target) {
                 continue;
             }
-            moved.push(lane_change::Moved::of(&self.vehicles[c.vehicle], c.target));
-            self.change_lane(c.vehicle, c.target);
-            changed[c.vehicle] = true;
-        }
-        // Then the optional ones, into the gaps the needed ones left.
-        for c in choices {
-            if changed[c.vehicle] || !self.gap_still_free(&moved, c.vehicle, c.target) {
-                continue;
+            moved.push(lane_change::Moved::of(&self.vehicles[i], target));
+            if let Some(c) = choice {
+                lane_choice::reroute(&self.net, &mut self.vehicles[i], &c);
             }
-            moved.push(lane_change::Moved::of(&self.vehicles[c.vehicle], c.target));
-            lane_choice::reroute(&self.net, &mut self.vehicles[c.vehicle], &c);
-            self.change_lane(c.vehicle, c.target);
-            changed[c.vehicle] = true;
+            self.change_lane(i, target);
         }
         !moved.is_empty()
     }
