@@ -25,13 +25,24 @@ pub fn refresh_first_lanes(net: &LaneNetwork, v: &mut Vehicle) {
 }
 
 /// The lane the vehicle must move to: when path[1] does not follow path[0],
-/// the sibling of path[0] that leads to it.
+/// the lane beside path[0] toward the sibling that leads to it. A change
+/// crosses one lane at a time, so that the body drawn across is a body on
+/// each lane it reaches into; the path keeps path[1], and the next change
+/// follows from the lane reached.
 pub fn pending_target(net: &LaneNetwork, v: &Vehicle) -> Option<LaneId> {
     let (&here, &next) = (v.path.first()?, v.path.get(1)?);
     if net.lane(here).next.contains(&next) {
         return None;
     }
-    sibling_towards(net, here, next)
+    let goal = sibling_towards(net, here, next)?;
+    if net.beside(here, goal) {
+        return Some(goal);
+    }
+    let goal_start = net.lane(goal).line.point(0);
+    net.lanes_beside(here).min_by(|&a, &b| {
+        let d = |l: LaneId| net.lane(l).line.point(0).distance(goal_start);
+        d(a).total_cmp(&d(b))
+    })
 }
 
 /// The sibling of `lane` (see [`crate::siblings`]) that leads to `next`; of
@@ -84,8 +95,9 @@ pub fn plan(
     config: &NpcVehicleConfig,
 ) -> Option<Change> {
     let v = &vehicles[i];
-    // Wholly on its lane first, so that the body never spans two roads.
-    if v.should_despawn || v.rear_s() < 0.0 {
+    // Wholly on its lane first, so that the body never spans two roads, and
+    // done with the last change (its body no longer reaches back).
+    if v.should_despawn || v.rear_s() < 0.0 || v.shadow.is_some() {
         return None;
     }
     let target = v.lane_change?;
@@ -240,6 +252,6 @@ pub fn apply(net: &LaneNetwork, v: &mut Vehicle, target: LaneId) {
     crate::control::place_body(net, v, false);
     crate::pose::start_sideways(v, from);
     v.first_junction_lane = crate::cognition::path::first_junction_lane(net, &v.path);
-    // The target leads to path[1]: no further change is pending.
+    // Whether a further change is pending (two lanes across).
     refresh_first_lanes(net, v);
 }

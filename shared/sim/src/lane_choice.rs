@@ -90,7 +90,12 @@ pub fn choose(
     let v = &vehicles[i];
     // Every vehicle is asked every tick: the fields read by every pass first.
     let queued = v.distance_to_front < QUEUED_GAP && v.front_speed < QUEUED_SPEED;
-    if !queued || v.lane_change.is_some() || v.should_despawn || v.forced_through.is_some() {
+    if !queued
+        || v.lane_change.is_some()
+        || v.shadow.is_some()
+        || v.should_despawn
+        || v.forced_through.is_some()
+    {
         return None;
     }
     if !looking.due(v)

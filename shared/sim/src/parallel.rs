@@ -1,10 +1,13 @@
 //! How the tick's phases share out work: the smallest share worth a thread,
 //! and a join that stays on one thread when the world is small.
 
-/// Vehicles below which a parallel phase runs on one thread: waking the other
-/// threads for a few hundred vehicles costs more than it saves (a 1,000-vehicle
-/// SUMO grid ran faster on one thread than on two).
-pub const MIN_VEHICLES_PER_TASK: usize = 1024;
+/// Vehicles below which a parallel phase runs on one thread, and the share of
+/// one task above: with the other workers kept awake through the tick
+/// (`world::awake`), a share this small still pays for handing it over
+/// (Bologna's Acosta district, 400 to 700 vehicles, a quarter shorter on two
+/// threads than with 1,024; a 1,000-vehicle grid 40% more vehicle-steps per
+/// second).
+pub const MIN_VEHICLES_PER_TASK: usize = 256;
 
 /// `rayon::join(a, b)` when `parallel`, else `a` then `b` on this thread. A
 /// world too small for its phases to run on the pool leaves the other

@@ -58,6 +58,50 @@ fn a_route_from_the_lane_beside_changes_lanes_behind_the_vehicle_there() {
     assert_eq!(seen[1], ["a1", "j1", "x1"]);
 }
 
+/// Three eastbound lanes side by side, 3.2 m apart, each through its own
+/// junction lane to its own exit.
+fn three_lane_road() -> trafficmesh_model::MapFile {
+    let lanes = (0..3)
+        .flat_map(|k| {
+            let y = 3.2 * k as f64;
+            let mut j = lane(
+                &format!("j{k}"),
+                &[[200.0, y], [220.0, y]],
+                &[&format!("x{k}")],
+            );
+            j["intersection"] = json!(true);
+            [
+                lane(
+                    &format!("a{k}"),
+                    &[[0.0, y], [200.0, y]],
+                    &[&format!("j{k}")],
+                ),
+                j,
+                lane(&format!("x{k}"), &[[220.0, y], [400.0, y]], &[]),
+            ]
+        })
+        .collect();
+    map(lanes, json!({}))
+}
+
+#[test]
+fn a_route_two_lanes_across_changes_one_lane_at_a_time_behind_the_vehicle_between() {
+    let mut w = world(&three_lane_road(), WorldConfig::default());
+    // The body drawn across two lanes would sweep over the middle one: it
+    // moves onto it first, behind the vehicle there, then on.
+    let routed = w
+        .place_vehicle_on_route("Taxi", &["a0", "j2", "x2"], 40.0, 10.0)
+        .unwrap();
+    let between = w.place_vehicle("Taxi", "a1", 40.0, 10.0).unwrap();
+    let seen = run_out(&mut w, &[routed, between]);
+    assert_eq!(
+        seen[0],
+        ["a0", "a1", "a2", "j2", "x2"],
+        "the routed vehicle crosses the middle lane"
+    );
+    assert_eq!(seen[1], ["a1", "j1", "x1"]);
+}
+
 #[test]
 fn a_vehicle_that_finds_no_gap_waits_before_its_lane_ends() {
     let mut w = world(&two_lane_road(), WorldConfig::default());
