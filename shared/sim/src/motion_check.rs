@@ -49,6 +49,7 @@ pub struct Tally {
     pub distinct: u64,
     /// The largest excess over the bound.
     pub max_excess: f64,
+    /// The first finding of each of the first vehicles (pairs) found.
     pub first: Vec<Finding>,
     seen: std::collections::HashSet<(VehicleId, VehicleId)>,
 }
@@ -56,12 +57,14 @@ pub struct Tally {
 impl Tally {
     fn add(&mut self, f: Finding) {
         self.count += 1;
+        self.max_excess = self.max_excess.max(f.value - f.bound);
+        // The first finding of each vehicle (or pair): as many incidents as
+        // examples, not one incident tick after tick.
         if self.seen.insert((f.vehicle, f.other.unwrap_or(f.vehicle))) {
             self.distinct += 1;
-        }
-        self.max_excess = self.max_excess.max(f.value - f.bound);
-        if self.first.len() < EXAMPLES {
-            self.first.push(f);
+            if self.first.len() < EXAMPLES {
+                self.first.push(f);
+            }
         }
     }
 }

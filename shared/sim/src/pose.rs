@@ -28,6 +28,9 @@ const LANE_CHANGE_RADIUS: f64 = 5.0;
 const LANE_CHANGE_SIDE_ACCEL: f64 = 2.0;
 /// The steepest angle a lane change crosses at, radians.
 const LANE_CHANGE_MAX_ANGLE: f64 = 0.5;
+/// How far a bumper's centre may swing past a lane's centreline in a lane
+/// change, metres.
+const ENDS_PAST_CENTRE: f64 = 0.15;
 /// A drawn position off the path (see [`Sideways::residual`]) is eased back
 /// over this many times its distance...
 const EASE_PER_METRE: f64 = 20.0;
@@ -41,7 +44,8 @@ const STEP_SLACK: f64 = 0.002;
 /// The pose after the body moved `travelled` metres along its path (0 for a
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
-    ease_sideways(&mut v.sideways, v.speed, travelled, v.heading);
+    let ends = (v.front_offset, v.length - v.front_offset);
+    ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
         if front.max(rear) <= v.sideways.reach || v.sideways.offset == 0.0 {
@@ -89,6 +93,7 @@ pub fn start_sideways(v: &mut Vehicle, from: LaneId) {
     let offset = from_path.dot(normal);
     let across = offset - v.sideways.offset;
     v.sideways.offset = offset;
+    v.sideways.start = offset.abs();
     v.sideways.residual = from_path - normal * offset;
     // An end of the body reaches a body of its width on `from` while it lies
     // further across than the two lanes' distance less a width.
@@ -98,10 +103,20 @@ pub fn start_sideways(v: &mut Vehicle, from: LaneId) {
 
 /// One step of the way across: the heading relative to the path turns
 /// toward the angle from which, turning back as tightly, the body ends on
-/// the centreline, and the offset follows the heading. Driving at an angle
-/// to the path, the body falls behind its place on it (`along` is the
-/// path's direction): that joins the residual.
-fn ease_sideways(side: &mut Sideways, speed: f64, travelled: f64, along: DVec2) {
+/// the centreline, and the offset follows the heading. Turning about its
+/// origin, a long body at a steep angle would reach into the lanes on either
+/// side: neither end swings further than [`ENDS_PAST_CENTRE`] past the
+/// centreline of the lane it heads for (the front) or of the lane it left
+/// (the rear); `ends` are the front's and the rear's distances from the
+/// origin. Driving at an angle to the path, the body falls behind its place
+/// on it (`along` is the path's direction): that joins the residual.
+fn ease_sideways(
+    side: &mut Sideways,
+    speed: f64,
+    travelled: f64,
+    along: DVec2,
+    (front, rear): (f64, f64),
+) {
     if travelled <= 0.0 {
         return;
     }
@@ -116,7 +131,14 @@ fn ease_sideways(side: &mut Sideways, speed: f64, travelled: f64, along: DVec2) 
     let turn = travelled / radius;
     // Turning back from angle a covers radius (1 - cos a) sideways.
     let steepest = (1.0 - side.offset.abs() / radius).max(-1.0).acos();
-    let wanted = -side.offset.signum() * steepest.min(LANE_CHANGE_MAX_ANGLE);
+    // The sine of the angle at which an end `length` from the origin lies
+    // `room` past its centreline.
+    let swing = |room: f64, length: f64| ((room + ENDS_PAST_CENTRE) / length.max(1.0)).min(1.0);
+    let across = side.offset.abs();
+    let ends = swing(across, front)
+        .min(swing((side.start - across).max(0.0), rear))
+        .asin();
+    let wanted = -side.offset.signum() * steepest.min(ends).min(LANE_CHANGE_MAX_ANGLE);
     side.angle += (wanted - side.angle).clamp(-turn, turn);
     let before = side.offset;
     side.offset += travelled * side.angle.sin();

@@ -67,6 +67,8 @@ pub struct Sideways {
     /// How far across toward the lane left an end of the body (the bumper's
     /// centre) may lie without reaching a body of its width there.
     pub reach: f64,
+    /// Metres across the change began (the distance between the lanes).
+    pub start: f64,
 }
 
 impl Sideways {

@@ -103,6 +103,22 @@ fn a_route_two_lanes_across_changes_one_lane_at_a_time_behind_the_vehicle_betwee
 }
 
 #[test]
+fn a_long_body_changing_lanes_keeps_its_ends_out_of_the_lane_on_the_far_side() {
+    let mut w = world(&three_lane_road(), WorldConfig::default());
+    // A 9.2 m truck pulling out slowly toward the right lane, turning as
+    // tightly as it may, swings its rear toward the left one about its
+    // middle; the car beside its rear there must not be touched (nor, once across,
+    // the truck's nose past the right lane).
+    let truck = w
+        .place_vehicle_on_route("Truck_2t", &["a1", "j0", "x0"], 40.0, 2.0)
+        .unwrap();
+    let beside = w.place_vehicle("Taxi", "a2", 35.0, 2.0).unwrap();
+    let seen = run_out(&mut w, &[truck, beside]);
+    assert_eq!(seen[0], ["a1", "a0", "j0", "x0"], "the truck changes lanes");
+    assert_eq!(seen[1], ["a2", "j2", "x2"]);
+}
+
+#[test]
 fn a_vehicle_that_finds_no_gap_waits_before_its_lane_ends() {
     let mut w = world(&two_lane_road(), WorldConfig::default());
     let routed = w
