@@ -60,7 +60,11 @@ impl Tally {
         self.max_excess = self.max_excess.max(f.value - f.bound);
         // The first finding of each vehicle (or pair): as many incidents as
         // examples, not one incident tick after tick.
-        if self.seen.insert((f.vehicle, f.other.unwrap_or(f.vehicle))) {
+        let other = f.other.unwrap_or(f.vehicle);
+        if self
+            .seen
+            .insert((f.vehicle.min(other), f.vehicle.max(other)))
+        {
             self.distinct += 1;
             if self.first.len() < EXAMPLES {
                 self.first.push(f);
