@@ -38,26 +38,27 @@ pub fn pending_target(net: &LaneNetwork, v: &Vehicle) -> Option<LaneId> {
     if net.beside(here, goal) {
         return Some(goal);
     }
-    let goal_start = net.lane(goal).line.point(0);
-    net.lanes_beside(here).min_by(|&a, &b| {
-        let d = |l: LaneId| net.lane(l).line.point(0).distance(goal_start);
-        d(a).total_cmp(&d(b))
-    })
+    starting_nearest(net, net.lanes_beside(here), net.lane(goal).line.point(0))
 }
 
 /// The sibling of `lane` (see [`crate::siblings`]) that leads to `next`; of
 /// several, the one starting nearest to it.
 fn sibling_towards(net: &LaneNetwork, lane: LaneId, next: LaneId) -> Option<LaneId> {
-    let start = net.lane(lane).line.point(0);
-    net.lane(lane)
-        .siblings
-        .iter()
-        .copied()
-        .filter(|s| net.lane(next).prev.contains(s))
-        .min_by(|&a, &b| {
-            let d = |p: LaneId| net.lane(p).line.point(0).distance(start);
-            d(a).total_cmp(&d(b))
-        })
+    let siblings = net.lane(lane).siblings.iter().copied();
+    let leading = siblings.filter(|s| net.lane(next).prev.contains(s));
+    starting_nearest(net, leading, net.lane(lane).line.point(0))
+}
+
+/// Of `lanes`, the one that starts nearest to `point`.
+fn starting_nearest(
+    net: &LaneNetwork,
+    lanes: impl Iterator<Item = LaneId>,
+    point: glam::DVec2,
+) -> Option<LaneId> {
+    lanes.min_by(|&a, &b| {
+        let d = |l: LaneId| net.lane(l).line.point(0).distance(point);
+        d(a).total_cmp(&d(b))
+    })
 }
 
 /// A lane change to make this tick.

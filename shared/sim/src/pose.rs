@@ -48,7 +48,7 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
-        if front.max(rear) <= v.sideways.reach || v.sideways.offset == 0.0 {
+        if front.max(rear) <= v.sideways.reach(v.width) || v.sideways.offset == 0.0 {
             v.shadow = None;
         }
     }
@@ -91,14 +91,14 @@ pub fn start_sideways(v: &mut Vehicle, from: LaneId) {
     let normal = v.heading.perp();
     let from_path = DVec2::new(v.pose.x, v.pose.y) - (v.front - v.heading * v.front_offset);
     let offset = from_path.dot(normal);
-    let across = offset - v.sideways.offset;
+    // The lanes' distance: what the body had left to go across before the
+    // change does not count.
+    v.sideways.gap = (offset - v.sideways.offset).abs();
     v.sideways.offset = offset;
-    v.sideways.start = offset.abs();
     v.sideways.residual = from_path - normal * offset;
     // An end of the body reaches a body of its width on `from` while it lies
     // further across than the two lanes' distance less a width.
-    v.sideways.reach = (across.abs() - v.width).max(0.0);
-    v.shadow = (v.sideways.offset.abs() > v.sideways.reach).then_some(from);
+    v.shadow = (offset.abs() > v.sideways.reach(v.width)).then_some(from);
 }
 
 /// One step of the way across: the heading relative to the path turns
@@ -136,7 +136,7 @@ fn ease_sideways(
     let swing = |room: f64, length: f64| ((room + ENDS_PAST_CENTRE) / length.max(1.0)).min(1.0);
     let across = side.offset.abs();
     let ends = swing(across, front)
-        .min(swing((side.start - across).max(0.0), rear))
+        .min(swing((side.gap - across).max(0.0), rear))
         .asin();
     let wanted = -side.offset.signum() * steepest.min(ends).min(LANE_CHANGE_MAX_ANGLE);
     side.angle += (wanted - side.angle).clamp(-turn, turn);

@@ -64,14 +64,19 @@ pub struct Sideways {
     /// What is left of where it was drawn along the way (the lanes' shapes
     /// are not parallel everywhere), eased away as it drives on.
     pub residual: DVec2,
-    /// How far across toward the lane left an end of the body (the bumper's
-    /// centre) may lie without reaching a body of its width there.
-    pub reach: f64,
-    /// Metres across the change began (the distance between the lanes).
-    pub start: f64,
+    /// Metres between the centrelines of the lane left and the new one,
+    /// where the change began.
+    pub gap: f64,
 }
 
 impl Sideways {
+    /// How far across toward the lane left an end of a body `width` wide
+    /// (the bumper's centre) may lie without reaching a body of its width
+    /// there.
+    pub fn reach(&self, width: f64) -> f64 {
+        (self.gap - width).max(0.0)
+    }
+
     /// How far across toward the lane left the front and the rear bumper's
     /// centres lie, metres: the front swings out first, the rear last.
     pub fn ends_across(&self, front_offset: f64, length: f64) -> (f64, f64) {
@@ -263,7 +268,7 @@ impl Vehicle {
     pub fn front_in_lane_left(&self, net: &crate::network::LaneNetwork) -> Option<LaneId> {
         let lane = self.shadow_lane(net)?;
         let (front, _) = self.sideways.ends_across(self.front_offset, self.length);
-        (front > self.sideways.reach).then_some(lane)
+        (front > self.sideways.reach(self.width)).then_some(lane)
     }
 
     /// The lanes it will drive after its current one, each with where it is

@@ -58,35 +58,9 @@ fn a_route_from_the_lane_beside_changes_lanes_behind_the_vehicle_there() {
     assert_eq!(seen[1], ["a1", "j1", "x1"]);
 }
 
-/// Three eastbound lanes side by side, 3.2 m apart, each through its own
-/// junction lane to its own exit.
-fn three_lane_road() -> trafficmesh_model::MapFile {
-    let lanes = (0..3)
-        .flat_map(|k| {
-            let y = 3.2 * k as f64;
-            let mut j = lane(
-                &format!("j{k}"),
-                &[[200.0, y], [220.0, y]],
-                &[&format!("x{k}")],
-            );
-            j["intersection"] = json!(true);
-            [
-                lane(
-                    &format!("a{k}"),
-                    &[[0.0, y], [200.0, y]],
-                    &[&format!("j{k}")],
-                ),
-                j,
-                lane(&format!("x{k}"), &[[220.0, y], [400.0, y]], &[]),
-            ]
-        })
-        .collect();
-    map(lanes, json!({}))
-}
-
 #[test]
 fn a_route_two_lanes_across_changes_one_lane_at_a_time_behind_the_vehicle_between() {
-    let mut w = world(&three_lane_road(), WorldConfig::default());
+    let mut w = world(&road_of_lanes(3), WorldConfig::default());
     // The body drawn across two lanes would sweep over the middle one: it
     // moves onto it first, behind the vehicle there, then on.
     let routed = w
@@ -104,7 +78,7 @@ fn a_route_two_lanes_across_changes_one_lane_at_a_time_behind_the_vehicle_betwee
 
 #[test]
 fn a_long_body_changing_lanes_keeps_its_ends_out_of_the_lane_on_the_far_side() {
-    let mut w = world(&three_lane_road(), WorldConfig::default());
+    let mut w = world(&road_of_lanes(3), WorldConfig::default());
     // A 9.2 m truck pulling out slowly toward the right lane, turning as
     // tightly as it may, swings its rear toward the left one about its
     // middle; the car beside its rear there must not be touched (nor, once across,

@@ -9,19 +9,26 @@ use trafficmesh_sim::{LaneNetwork, Vehicle, World, WorldConfig};
 /// Two eastbound lanes side by side, 3.2 m apart, each going on through its own
 /// junction lane to its own exit.
 pub fn two_lane_road() -> MapFile {
-    let mut j0 = lane("j0", &[[200.0, 0.0], [220.0, 0.0]], &["x0"]);
-    let mut j1 = lane("j1", &[[200.0, 3.2], [220.0, 3.2]], &["x1"]);
-    j0["intersection"] = json!(true);
-    j1["intersection"] = json!(true);
+    road_of_lanes(2)
+}
+
+/// `n` eastbound lanes side by side, 3.2 m apart (`a0` the rightmost), each
+/// going on through its own junction lane `jk` to its own exit `xk`.
+pub fn road_of_lanes(n: usize) -> MapFile {
+    let y = |k: usize| 3.2 * k as f64;
+    let approaches = (0..n).map(|k| {
+        let (name, next) = (format!("a{k}"), format!("j{k}"));
+        lane(&name, &[[0.0, y(k)], [200.0, y(k)]], &[&next])
+    });
+    let junctions = (0..n).map(|k| {
+        let (name, next) = (format!("j{k}"), format!("x{k}"));
+        let mut j = lane(&name, &[[200.0, y(k)], [220.0, y(k)]], &[&next]);
+        j["intersection"] = json!(true);
+        j
+    });
+    let exits = (0..n).map(|k| lane(&format!("x{k}"), &[[220.0, y(k)], [400.0, y(k)]], &[]));
     map(
-        vec![
-            lane("a0", &[[0.0, 0.0], [200.0, 0.0]], &["j0"]),
-            lane("a1", &[[0.0, 3.2], [200.0, 3.2]], &["j1"]),
-            j0,
-            j1,
-            lane("x0", &[[220.0, 0.0], [400.0, 0.0]], &[]),
-            lane("x1", &[[220.0, 3.2], [400.0, 3.2]], &[]),
-        ],
+        approaches.chain(junctions).chain(exits).collect(),
         json!({}),
     )
 }
