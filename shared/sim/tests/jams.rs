@@ -280,3 +280,61 @@ fn a_jammed_vehicle_that_changed_lanes_is_moved_ahead_not_back() {
     assert!(v.pose.x >= 220.0, "its body is on x1: x {}", v.pose.x);
     assert_eq!(w.wait_stats().jam_removals, 0);
 }
+
+/// The jam timeout moves the first vehicle of its lane whatever holds it,
+/// also the body of another lane standing across its way (as SUMO teleports
+/// a lane's first vehicle): here a car held for good by a red light whose
+/// stop line lies just past an unmarked crossing, its body across the road
+/// of the car that waits for it.
+#[test]
+fn a_vehicle_waiting_for_a_body_of_another_lane_across_its_way_is_a_jammed_head() {
+    let mut north = lane("north", &[[100.0, -100.0], [100.0, 4.0]], &["north_box"]);
+    north["stop_line"] = json!([[98.25, 4.0], [101.75, 4.0]]);
+    north["traffic_light"] = json!("L");
+    let mut north_box = lane("north_box", &[[100.0, 4.0], [100.0, 24.0]], &["north_exit"]);
+    north_box["intersection"] = json!(true);
+    let m = map(
+        vec![
+            lane("east", &[[0.0, 0.0], [200.0, 0.0]], &[]),
+            north,
+            north_box,
+            lane("north_exit", &[[100.0, 24.0], [100.0, 200.0]], &[]),
+        ],
+        json!({
+            "conflicts_outside_junctions": true,
+            "light_groups": [{ "name": "L", "program": { "green": 30, "yellow": 3, "red": 30 } }]
+        }),
+    );
+    let config = WorldConfig {
+        jam_timeout: 120.0,
+        ..WorldConfig::default()
+    };
+    let mut w = world(&m, config);
+    w.set_light("L", LightControl::Forced(LightColor::Red))
+        .unwrap();
+    let held = w.place_vehicle("Taxi", "north", 60.0, 10.0).unwrap();
+    run_for(&mut w, 20.0);
+    let v = vehicle(&w, held);
+    assert!(
+        v.speed < 0.1 && v.rear_s() < 100.0,
+        "the red light holds it across the road: rear at s {:.1}",
+        v.rear_s()
+    );
+    let waiting = w.place_vehicle("Taxi", "east", 40.0, 10.0).unwrap();
+    run_for(&mut w, 100.0);
+    assert!(
+        vehicle(&w, waiting).speed < 0.1,
+        "it waits for the body across its way"
+    );
+    assert!(vehicle(&w, waiting).s < 100.0, "before the crossing");
+    run_until(&mut w, 40.0, |w| w.vehicle(waiting).is_none());
+    assert!(
+        w.vehicle(waiting).is_none(),
+        "still waiting 140 s after it stopped"
+    );
+    assert_eq!(w.wait_stats().jam_resolutions, 1, "counted once");
+    assert!(
+        w.vehicle(held).is_some(),
+        "the one its red light holds stays"
+    );
+}

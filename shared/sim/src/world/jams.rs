@@ -10,6 +10,7 @@ use trafficmesh_model::LightColor;
 use super::World;
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
+use crate::lane_index::LaneIndex;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
 
@@ -18,6 +19,9 @@ use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
 const JAM_CHECK_INTERVAL: u64 = 50;
 /// Standing this long (away from a red light) makes a vehicle stuck.
 pub const STUCK_AFTER: f64 = 60.0;
+/// A body whose front is this little ahead of ours is our own (the index is
+/// a tick old; a jammed vehicle has stood still since).
+const FRONT_TOLERANCE: f64 = 0.01;
 
 /// What the world has seen of waiting, for `sim --json` and the stepper status.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -44,7 +48,8 @@ impl World {
         let mut jammed: Vec<(u64, usize)> = Vec::new();
         for (i, v) in self.vehicles.iter().enumerate() {
             self.wait_stats.max_wait = self.wait_stats.max_wait.max(v.trip.wait);
-            if timeout > 0.0 && v.trip.wait >= timeout && is_jammed_head(&self.net, v) {
+            if timeout > 0.0 && v.trip.wait >= timeout && is_jammed_head(&self.net, &self.index, v)
+            {
                 jammed.push((v.id, i));
             }
         }
@@ -118,13 +123,19 @@ fn is_stuck(v: &Vehicle) -> bool {
     v.trip.wait >= STUCK_AFTER && !at_red(v)
 }
 
-/// The head of a queue (nothing ahead on its own lane: what holds it lies at
-/// or beyond the lane's end, or it stands inside a junction), not held by a
-/// red light (a light held red on purpose, or stale, is a wait, not a jam),
-/// and not leaving anyway.
-fn is_jammed_head(net: &LaneNetwork, v: &Vehicle) -> bool {
+/// The head of a queue (no body ahead on its own lane, as SUMO teleports
+/// only a lane's first vehicle: what holds it lies beyond the lane's end, in
+/// a junction, or is a body of another lane standing across its way), not
+/// held by a red light (a light held red on purpose, or stale, is a wait, not
+/// a jam), and not leaving anyway.
+fn is_jammed_head(net: &LaneNetwork, index: &LaneIndex, v: &Vehicle) -> bool {
     let lane = net.lane(v.path[0]);
-    let head = lane.intersection || v.distance_to_front >= lane.length() - v.s - 0.01;
+    let head = lane.intersection
+        || v.distance_to_front >= lane.length() - v.s - 0.01
+        || !index
+            .on_lane(v.path[0])
+            .iter()
+            .any(|o| !o.ghost && o.front > v.s + FRONT_TOLERANCE);
     head && !at_red(v) && !v.should_despawn
 }
 
