@@ -152,3 +152,44 @@ fn a_deadlock_right_after_another_junction_is_broken_too() {
     // took 98 s).
     assert!(crossed, "the four vehicles did not all cross within 40 s");
 }
+
+/// A vehicle let through by deadlock breaking goes, also when the one it
+/// was waiting for would hold it again in FORCING_PRIORITY: here A, already
+/// on a junction lane that yields to B's, waits for B's body, which stands
+/// at its junction's entrance too close to A's way (roads that meet outside
+/// any junction, as Lanelet2 maps draw them), while B holds for A, who should
+/// have yielded to it. Released, B has to go, or the two wait for each other
+/// until the jam timeout.
+#[test]
+fn a_vehicle_released_from_a_deadlock_is_not_held_again_by_the_one_it_waited_for() {
+    let mut a_x = lane("A_x", &[[0.0, -20.0], [0.0, 20.0]], &["A_out"]);
+    a_x["intersection"] = json!(true);
+    a_x["right_of_way"] = json!(["B_x"]);
+    let mut b_x = lane("B_x", &[[-1.5, 0.0], [20.0, 0.0]], &["B_out"]);
+    b_x["intersection"] = json!(true);
+    let m = map(
+        vec![
+            lane("A_in", &[[0.0, -100.0], [0.0, -20.0]], &["A_x"]),
+            a_x,
+            lane("A_out", &[[0.0, 20.0], [0.0, 200.0]], &[]),
+            lane("B_in", &[[-100.0, 0.0], [-1.5, 0.0]], &["B_x"]),
+            b_x,
+            lane("B_out", &[[20.0, 0.0], [200.0, 0.0]], &[]),
+        ],
+        json!({ "conflicts_outside_junctions": true }),
+    );
+    let mut w = world(&m, WorldConfig::default());
+    let b = w.place_vehicle("SmallCar", "B_in", 98.5, 0.0).unwrap();
+    let a = w.place_vehicle("SmallCar", "A_x", 16.0, 0.0).unwrap();
+    let mut held = false;
+    let through = run_until(&mut w, 30.0, |w| {
+        assert_no_overlap(w);
+        held |= vehicle(w, b).yield_phase == YieldPhase::ForcingPriority;
+        [(a, "A_out"), (b, "B_out")].iter().all(|&(id, out)| {
+            w.vehicle(id)
+                .is_none_or(|v| w.network().lane(v.path[0]).name == out)
+        })
+    });
+    assert!(held, "B never held for A: no deadlock to break");
+    assert!(through, "A and B still wait for each other after 30 s");
+}

@@ -505,6 +505,11 @@ impl Ctx<'_, '_> {
     /// standing one that is about to yield to us leaves both creeping, each
     /// giving way to the other by turns.
     fn some_vehicle_forcing_priority(&self) -> Hit {
+        // Released by deadlock breaking: holding back for a vehicle of the
+        // cycle would close it again the next tick.
+        if self.forced_through() {
+            return None;
+        }
         self.others()
             .find(|o| {
                 !o.yield_phase.is_yielding_due_to_rules()
