@@ -201,6 +201,13 @@ struct Ctx<'a, 'b> {
     info: &'a RowInfo,
     candidates: &'a [Member],
     yield_lane: Option<LaneId>,
+    /// Let through this junction by deadlock breaking: no rule makes it give
+    /// way (lanes' rules, traffic on the right, holding for a vehicle that
+    /// should yield to it) until it has left the junction, before it or on
+    /// it; the one it waited for holds in FORCING_PRIORITY meanwhile, and
+    /// giving way back would close the cycle again the next tick. A busy
+    /// junction still holds it.
+    released: bool,
 }
 
 /// A predicate's hit: the vehicle yielded to and where to stop.
@@ -218,6 +225,7 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
         info,
         candidates,
         yield_lane,
+        released: released_through(snap.net, v, info),
     };
     let keep = |phase, hit: Hit| match hit {
         Some((dominating, point)) => RowDecision {
@@ -344,6 +352,20 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     }
 }
 
+/// Deadlock breaking let the vehicle through the junction it is at or before.
+/// (Nearly every vehicle has no release: its lane is not read then.)
+fn released_through(net: &LaneNetwork, v: &Vehicle, info: &RowInfo) -> bool {
+    let Some(released) = v.forced_through else {
+        return false;
+    };
+    info.first_int.is_some_and(|(_, l)| {
+        net.lane(l)
+            .junction
+            .unwrap_or(super::deadlock::UNNUMBERED_JUNCTION)
+            == released
+    })
+}
+
 /// The lane whose rules the vehicle obeys. The reference sets it as the vehicle
 /// approaches its junction; a junction path of several lanes (SUMO splits a
 /// turn that waits inside the junction at an internal junction) brings its own
@@ -441,18 +463,8 @@ impl Ctx<'_, '_> {
         }
     }
 
-    fn forced_through(&self) -> bool {
-        let j = self.info.first_int.map(|(_, l)| {
-            self.net()
-                .lane(l)
-                .junction
-                .unwrap_or(super::deadlock::UNNUMBERED_JUNCTION)
-        });
-        j.is_some() && self.v.forced_through == j
-    }
-
     fn right_hand_rule_entering(&self) -> Hit {
-        if self.forced_through() {
+        if self.released {
             return None;
         }
         self.others()
@@ -467,10 +479,7 @@ impl Ctx<'_, '_> {
     }
 
     fn right_hand_rule_on_intersection(&self) -> Hit {
-        // Released by deadlock breaking: through the junction, on it too; the
-        // one it was waiting for holds in FORCING_PRIORITY meanwhile, and
-        // yielding back to it would leave both creeping.
-        if self.forced_through() {
+        if self.released {
             return None;
         }
         self.others()
@@ -505,9 +514,7 @@ impl Ctx<'_, '_> {
     /// standing one that is about to yield to us leaves both creeping, each
     /// giving way to the other by turns.
     fn some_vehicle_forcing_priority(&self) -> Hit {
-        // Released by deadlock breaking: holding back for a vehicle of the
-        // cycle would close it again the next tick.
-        if self.forced_through() {
+        if self.released {
             return None;
         }
         self.others()
@@ -527,8 +534,7 @@ impl Ctx<'_, '_> {
 
     /// Lane rules: yield to vehicles (or the ego) on the lanes our junction lane yields to.
     fn should_yield_due_to_lanes(&self, on_intersection: bool) -> Hit {
-        // Released by deadlock breaking: through this junction, before it or on it.
-        if self.forced_through() {
+        if self.released {
             return None;
         }
         let lane_id = self.yield_lane?;
