@@ -552,6 +552,25 @@ fn across_end(centre: &[Xy], width: f64) -> [Point; 2] {
     ]
 }
 
+/// The direction of `centre` on its segment nearest to `p`. A light's axis is
+/// the way its lanelet crosses the stop line: where the light sits on a
+/// turning junction lanelet (stop line at its start), its end points where
+/// the turn leaves, across the approach.
+fn heading_at(centre: &[Xy], p: Xy) -> f64 {
+    let nearest = centre
+        .windows(2)
+        .map(|w| {
+            let (a, b) = (w[0], w[1]);
+            let ab = [b[0] - a[0], b[1] - a[1]];
+            let len2 = (ab[0] * ab[0] + ab[1] * ab[1]).max(1e-12);
+            let t = (((p[0] - a[0]) * ab[0] + (p[1] - a[1]) * ab[1]) / len2).clamp(0.0, 1.0);
+            let q = [a[0] + ab[0] * t, a[1] + ab[1] * t, a[2]];
+            (dist(p, q), ab)
+        })
+        .min_by(|x, y| x.0.total_cmp(&y.0));
+    nearest.map_or(0.0, |(_, ab)| ab[1].atan2(ab[0]))
+}
+
 /// Two phases per intersection: lights whose approach runs along the first
 /// light's axis (within 45°) get green first, the crossing axis after them.
 fn synthesise_programs(
@@ -569,8 +588,7 @@ fn synthesise_programs(
             let l = &lanelets[ls[0]];
             let stop = lanes[ls[0]].stop_line.unwrap();
             let mid = [0, 1, 2].map(|k| (stop[0].0[k] + stop[1].0[k]) / 2.0);
-            let (a, b) = (l.centre[l.centre.len() - 2], l.centre[l.centre.len() - 1]);
-            (*reg, mid, (b[1] - a[1]).atan2(b[0] - a[0]))
+            (*reg, mid, heading_at(&l.centre, mid))
         })
         .collect();
     // Intersections: lights whose stop lines are near each other, transitively.
@@ -624,6 +642,25 @@ fn synthesise_programs(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_lights_axis_is_the_way_its_lanelet_crosses_the_stop_line() {
+        // A left turn from a southbound approach: stop line at its start,
+        // leaving eastwards.
+        let turn: Vec<Xy> = (0..=16)
+            .map(|i| {
+                let a = i as f64 / 16.0 * std::f64::consts::FRAC_PI_2;
+                [10.0 - 10.0 * a.cos(), -10.0 * a.sin(), 0.0]
+            })
+            .collect();
+        let south = -std::f64::consts::FRAC_PI_2;
+        assert!((heading_at(&turn, turn[0]) - south).abs() < 0.1);
+        // The approach lanelet itself, stop line at its end.
+        let approach = [[0.0, 30.0, 0.0], [0.0, 15.0, 0.0], [0.0, 0.0, 0.0]];
+        assert!((heading_at(&approach, approach[2]) - south).abs() < 1e-9);
+        // At the turn's end it leaves eastwards.
+        assert!(heading_at(&turn, turn[16]).abs() < 0.1);
+    }
 
     #[test]
     fn a_turn_is_driven_as_fast_as_its_bend_allows() {
