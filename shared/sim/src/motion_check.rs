@@ -10,7 +10,7 @@ use glam::DVec2;
 use trafficmesh_model::SpeedLimitSource;
 
 use crate::World;
-use crate::geometry::{angle_between, box_corners, boxes_overlap};
+use crate::geometry::{angle_between, boxes_overlap};
 use crate::vehicle::{Vehicle, VehicleId};
 
 /// Metres a pose may move beyond its speed times the tick: rounding, and the
@@ -156,19 +156,6 @@ impl MotionCheck {
     }
 }
 
-/// The vehicle's footprint, shrunk by `margin` on every side: the centreline
-/// model approximates a rigid body on curves to a few centimetres.
-pub fn footprint(v: &Vehicle, margin: f64) -> [DVec2; 4] {
-    let heading = DVec2::from_angle(v.pose.yaw);
-    let center = DVec2::new(v.pose.x, v.pose.y) + heading * (v.front_offset - v.length * 0.5);
-    box_corners(
-        center,
-        v.pose.yaw,
-        v.length * 0.5 - margin,
-        v.width * 0.5 - margin,
-    )
-}
-
 /// Pairs (indices into `vehicles`, the lower first) whose footprints shrunk
 /// by `margin` overlap: neighbours from a grid of cells, not all pairs.
 pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(usize, usize)> {
@@ -186,14 +173,14 @@ pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(usize, usize
     let mut pairs = Vec::new();
     for (i, v) in vehicles.iter().enumerate() {
         let (cx, cy) = cell(v);
-        let a = footprint(v, margin);
+        let a = v.footprint(margin);
         for dx in -1..=1 {
             for dy in -1..=1 {
                 for &j in cells
                     .get(&(cx + dx, cy + dy))
                     .map_or(&[][..], Vec::as_slice)
                 {
-                    if j > i && boxes_overlap(&a, &footprint(&vehicles[j], margin)) {
+                    if j > i && boxes_overlap(&a, &vehicles[j].footprint(margin)) {
                         pairs.push((i, j));
                     }
                 }

@@ -237,6 +237,21 @@ pub struct Vehicle {
 }
 
 impl Vehicle {
+    /// The body as published (the pose's box), shrunk by `margin` on every
+    /// side: the centreline model approximates a rigid body on curves to a
+    /// few centimetres.
+    pub fn footprint(&self, margin: f64) -> [DVec2; 4] {
+        let heading = DVec2::from_angle(self.pose.yaw);
+        let center = DVec2::new(self.pose.x, self.pose.y)
+            + heading * (self.front_offset - self.length * 0.5);
+        crate::geometry::box_corners(
+            center,
+            self.pose.yaw,
+            self.length * 0.5 - margin,
+            self.width * 0.5 - margin,
+        )
+    }
+
     /// Unit heading, kept in step with `pose.yaw` by the Control step.
     pub fn forward(&self) -> DVec2 {
         self.heading

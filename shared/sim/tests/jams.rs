@@ -107,6 +107,65 @@ fn a_jammed_vehicle_with_a_route_is_moved_to_the_next_lane_of_its_route_where_it
     assert!(vehicle(&w, id).speed > 5.0, "it drives on from there");
 }
 
+/// `road_with_crossing` whose junction leads to a lane shorter than a car
+/// (a stub), then the exit; a road beside the exit's start where a truck
+/// can be held by a zebra of its own.
+fn road_with_stub_and_side_road() -> MapFile {
+    let mut m = serde_json::to_value(road_with_crossing(true)).unwrap();
+    let lanes = m["lanes"].as_array_mut().unwrap();
+    lanes[1]["next"] = json!(["stub"]);
+    lanes[2] = lane("exit", &[[422.0, 0.0], [800.0, 0.0]], &[]);
+    lanes.push(lane("stub", &[[420.0, 0.0], [422.0, 0.0]], &["exit"]));
+    lanes.push(lane("side", &[[380.0, 2.0], [470.0, 2.0]], &[]));
+    m["crosswalks"].as_array_mut().unwrap().push(json!({
+        "name": "SideZebra",
+        "area": { "shape": "box", "center": [440.0, 2.0], "half_extents": [2.0, 1.0] },
+        "stop_points": [{ "position": [436.0, 2.0] }]
+    }));
+    serde_json::from_value(m).unwrap()
+}
+
+/// Where it fits: the next lane that holds the whole body (a shorter one
+/// would leave it reaching back over lanes nobody knows it is on), with no
+/// other body there now.
+#[test]
+fn a_jammed_vehicle_is_moved_only_where_its_whole_body_fits() {
+    let route = ["east", "junction", "stub", "exit"];
+    for side_truck in [false, true] {
+        let config = WorldConfig {
+            jam_timeout: 120.0,
+            ..WorldConfig::default()
+        };
+        let mut w = world(&road_with_stub_and_side_road(), config);
+        let id = w
+            .place_vehicle_on_route("Taxi", &route, 60.0, 10.0)
+            .unwrap();
+        w.crosswalk_enter("Zebra", "Human_01", OccupantType::NpcPedestrian)
+            .unwrap();
+        run_for(&mut w, 100.0);
+        if side_truck {
+            // Held by its own zebra, its body over the exit's first metres.
+            w.crosswalk_enter("SideZebra", "Human_02", OccupantType::NpcPedestrian)
+                .unwrap();
+            w.place_vehicle("Truck_2t", "side", 50.0, 0.0).unwrap();
+        }
+        assert!(
+            run_until(&mut w, 60.0, |w| w.wait_stats().jam_resolutions == 1),
+            "its timeout comes"
+        );
+        let pairs = overlapping_pairs(w.vehicles(), 0.0);
+        assert!(pairs.is_empty(), "overlap after the move: {pairs:?}");
+        if side_truck {
+            assert!(w.vehicle(id).is_none(), "no room on the exit: taken off");
+            assert_eq!(w.wait_stats().jam_removals, 1);
+        } else {
+            let v = vehicle(&w, id);
+            assert_eq!(w.network().lane(v.path[0]).name, "exit", "past the stub");
+            assert_eq!(w.wait_stats().jam_removals, 0);
+        }
+    }
+}
+
 /// The vehicle's id, after checking that it is on `lane`.
 fn vehicle_lane_is(w: &trafficmesh_sim::World, id: u64, lane: &str) -> u64 {
     let on = vehicle(w, id).path[0];

@@ -128,3 +128,118 @@ fn two_trucks_do_not_fit_side_by_side_on_narrow_lanes_but_two_cars_do() {
         }
     }
 }
+
+/// A road that leaves a junction lane and cuts back across that lane's end
+/// at a shallow angle: the crossing begins on the junction lane, before the
+/// lane the road conflict is found on.
+fn cut_back_map() -> trafficmesh_model::MapFile {
+    let mut a_junction = lane("a_junction", &[[60.0, 0.0], [80.0, 0.0]], &["a_out"]);
+    a_junction["intersection"] = json!(true);
+    let mut b_junction = lane("b_junction", &[[100.0, -12.0], [84.0, -4.0]], &["b_out"]);
+    b_junction["intersection"] = json!(true);
+    unmarked_map(vec![
+        lane("a_in", &[[0.0, 0.0], [60.0, 0.0]], &["a_junction"]),
+        a_junction,
+        lane("a_out", &[[80.0, 0.0], [200.0, 0.0]], &[]),
+        lane("b_in", &[[140.0, -40.0], [100.0, -12.0]], &["b_junction"]),
+        b_junction,
+        lane("b_out", &[[84.0, -4.0], [40.0, 18.0]], &[]),
+    ])
+}
+
+/// The road after one junction lane crosses the other junction lane's end
+/// and then runs close by the road after it: a road conflict gives way on the
+/// second road, but the crossing begins on the junction lane before it. One
+/// giving way at the road's conflict would stand inside the crossing, in
+/// the way of the very vehicle it waits for.
+#[test]
+fn a_vehicle_giving_way_where_a_crossing_begins_on_its_junction_lane_waits_before_it() {
+    let starts_a = [
+        ("a_in", 40.0),
+        ("a_in", 50.0),
+        ("a_in", 55.0),
+        ("a_junction", 0.0),
+        ("a_junction", 2.0),
+    ];
+    let starts_b = [
+        ("b_in", 40.0),
+        ("b_in", 45.0),
+        ("b_junction", 5.0),
+        ("b_junction", 10.0),
+    ];
+    for (a_lane, a_at) in starts_a {
+        for (b_lane, b_at) in starts_b {
+            for speed in [0.0, 5.0] {
+                let mut w = world(&cut_back_map(), WorldConfig::default());
+                let a = w.place_vehicle("Taxi", a_lane, a_at, speed).unwrap();
+                let b = w.place_vehicle("Taxi", b_lane, b_at, speed).unwrap();
+                let what =
+                    format!("a on {a_lane} at {a_at} m, b on {b_lane} at {b_at} m, {speed} m/s");
+                let beyond = |w: &trafficmesh_sim::World, id: u64, out: &str| {
+                    let out = w.network().lane_id(out).unwrap();
+                    w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > 20.0)
+                };
+                let done = run_until(&mut w, 120.0, |w| {
+                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                    assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
+                    beyond(w, a, "a_out") && beyond(w, b, "b_out")
+                });
+                assert!(done, "{what}: both are through within two minutes");
+                assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+            }
+        }
+    }
+}
+
+/// A straight junction lane and a turn that end 2.9 m apart, each onto
+/// its own exit, the two exits side by side: too close for two trucks.
+/// Each junction lane's end comes close to the other's exit, so the two
+/// trucks meet at two zones, each one nearer to one of them.
+fn side_by_side_exits_map() -> trafficmesh_model::MapFile {
+    let mut straight = lane("s_j", &[[30.0, -1.45], [50.0, -1.45]], &["s_out"]);
+    straight["intersection"] = json!(true);
+    // A quarter circle from southbound to eastbound.
+    let arc: Vec<[f64; 2]> = (0..=12)
+        .map(|i| {
+            let t = std::f64::consts::PI * (1.0 + 0.5 * i as f64 / 12.0);
+            [50.0 + 15.0 * t.cos(), 16.45 + 15.0 * t.sin()]
+        })
+        .collect();
+    let mut turn = lane("n_j", &arc, &["n_out"]);
+    turn["intersection"] = json!(true);
+    unmarked_map(vec![
+        lane("s_in", &[[-30.0, -1.45], [30.0, -1.45]], &["s_j"]),
+        straight,
+        lane("s_out", &[[50.0, -1.45], [200.0, -1.45]], &[]),
+        lane("n_in", &[[35.0, 76.45], [35.0, 16.45]], &["n_j"]),
+        turn,
+        lane("n_out", &[[50.0, 1.45], [200.0, 1.45]], &[]),
+    ])
+}
+
+/// Of two trucks each standing before the zone it is nearer to, waiting for
+/// the other, the lower id goes: neither waits for the jam timeout.
+#[test]
+fn two_trucks_each_nearer_to_one_of_two_zones_do_not_wait_for_each_other() {
+    for a_at in [40.0, 45.0, 50.0] {
+        for b_at in [45.0, 50.0, 55.0] {
+            for (va, vb) in [(0.0, 0.0), (5.0, 5.0), (5.0, 10.0), (10.0, 5.0)] {
+                let mut w = world(&side_by_side_exits_map(), WorldConfig::default());
+                let a = w.place_vehicle("Truck_2t", "s_in", a_at, va).unwrap();
+                let b = w.place_vehicle("Truck_2t", "n_in", b_at, vb).unwrap();
+                let what = format!("straight at {a_at} m, {va} m/s; turn at {b_at} m, {vb} m/s");
+                let beyond = |w: &trafficmesh_sim::World, id: u64, out: &str| {
+                    let out = w.network().lane_id(out).unwrap();
+                    w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > 30.0)
+                };
+                let done = run_until(&mut w, 120.0, |w| {
+                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                    assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
+                    beyond(w, a, "s_out") && beyond(w, b, "n_out")
+                });
+                assert!(done, "{what}: both are through within two minutes");
+                assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+            }
+        }
+    }
+}

@@ -21,6 +21,15 @@ use crate::vehicle::{Vehicle, VehicleId};
 const EXIT_ROOM_MARGIN: f64 =
     crate::decision::MIN_FRONT_VEHICLE_DISTANCE + 3.0 * crate::decision::MIN_STOP_DISTANCE;
 
+/// Zones closer than this along the path are one crossing, metres.
+const CONTIGUOUS_ZONES: f64 = 1.0;
+/// Slower than this, a vehicle stands.
+const STANDING_SPEED: f64 = 0.05;
+/// How far past a zone's start another's waiting point may lie (where it
+/// waits for a neighbouring zone of the same lanes) for it to count as
+/// waiting at that zone, metres.
+const ZONE_WAIT_TOLERANCE: f64 = 1.0;
+
 /// The nearest body ahead: along-path metres to it and, when it is another
 /// vehicle, that vehicle's index (deadlock breaking follows these waits).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -242,14 +251,52 @@ impl Search<'_, '_> {
             if ours <= 0.0 {
                 continue;
             }
-            if let Some(other) = self.claimant(c, ours) {
+            if let Some(other) = self.claimant(c, ours)
+                && let Some(distance) = self.where_crossing_begins(other, ours)
+            {
                 nearest = FrontObstacle {
-                    distance: ours,
+                    distance,
                     vehicle: Some(other),
                 };
             }
         }
         nearest
+    }
+
+    /// Where to wait for a claimant: a crossing of its path may begin on an
+    /// earlier lane of ours than the road lane of the claim (a junction lane
+    /// before it, with a zone of its own that runs up to the claim's), and
+    /// one waiting inside that zone would block the claimant it waits for.
+    /// None when our front is inside it already: committed, the claimant
+    /// waits for our body.
+    fn where_crossing_begins(&self, claimant: u32, ours: f64) -> Option<f64> {
+        let theirs = &self.snap.vehicles[claimant as usize].path;
+        let theirs = &theirs[..theirs.len().min(3)];
+        let mut zones: Vec<(f64, f64)> = Vec::new();
+        for (_, lane, offset) in lanes_ahead(self.snap.net, self.v) {
+            if offset >= ours {
+                break;
+            }
+            zones.extend(
+                self.snap
+                    .net
+                    .lane(lane)
+                    .conflicts
+                    .iter()
+                    .filter(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0)
+                    .map(|c| (offset + c.a0, offset + c.a1)),
+            );
+        }
+        let mut begins = ours;
+        while let Some(start) = zones
+            .iter()
+            .filter(|&&(a0, a1)| a0 < begins && a1 >= begins - CONTIGUOUS_ZONES)
+            .map(|&(a0, _)| a0)
+            .reduce(f64::min)
+        {
+            begins = start;
+        }
+        (begins > 0.0).then_some(begins)
     }
 
     /// A vehicle on the other lane of conflict `c`, or on a lane just before
@@ -272,10 +319,24 @@ impl Search<'_, '_> {
                 let w = &snap.vehicles[o.vehicle as usize];
                 let passes_us = (self.v.width + w.width) * 0.5 < c.room;
                 let held = w.distance_to_front < to_zone
-                    || (w.passability == LightColor::Red && w.distance_to_light < to_zone);
+                    || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
+                    || self.waits_at_zone_for_lower_id(w, to_zone);
                 let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
                 (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
             })
+    }
+}
+
+impl Search<'_, '_> {
+    /// Two lanes that come close twice (where they merge side by side) give
+    /// two zones, and each of two vehicles may be nearer to one of them: each
+    /// then stands before its zone waiting for the other. A standing vehicle
+    /// whose own obstacle lies at this zone is waiting there, maybe for us:
+    /// of two such, the lower id goes.
+    fn waits_at_zone_for_lower_id(&self, w: &Vehicle, to_zone: f64) -> bool {
+        w.speed < STANDING_SPEED
+            && w.distance_to_front <= to_zone + ZONE_WAIT_TOLERANCE
+            && self.v.id < w.id
     }
 }
 

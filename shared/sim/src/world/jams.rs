@@ -10,6 +10,7 @@ use trafficmesh_model::LightColor;
 use super::World;
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
+use crate::geometry::boxes_overlap;
 use crate::lane_index::LaneIndex;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
@@ -62,9 +63,12 @@ impl World {
         for (_, i) in jammed {
             self.wait_stats.jam_resolutions += 1;
             let kind = self.vehicles[i].kind;
-            let target = lanes_ahead(&self.net, &self.vehicles[i])
-                .into_iter()
-                .find(|&(lane, _)| self.is_spawnable(kind, lane, &placed));
+            let target =
+                lanes_ahead(&self.net, &self.vehicles[i])
+                    .into_iter()
+                    .find(|&(lane, place)| {
+                        self.is_spawnable(kind, lane, &placed) && self.body_fits(i, lane, place)
+                    });
             match target {
                 Some((lane, place)) => {
                     let length = self.net.kinds[kind].length;
@@ -81,6 +85,23 @@ impl World {
             }
         }
         placed
+    }
+
+    /// Vehicle `i` moved to `lane` would touch no other body. The spawn check
+    /// looks at the lane and at who is coming; a body longer than a short
+    /// lane reaches back over the lanes before it, where another may be
+    /// crossing right now.
+    fn body_fits(&self, i: usize, lane: LaneId, place: WayPlace) -> bool {
+        let mut moved = self.vehicles[i].clone();
+        relocate(&self.net, &mut moved, lane, place);
+        let body = moved.footprint(0.0);
+        let reach = moved.length + moved.width;
+        let centre = DVec2::new(moved.pose.x, moved.pose.y);
+        self.vehicles.iter().enumerate().all(|(j, other)| {
+            j == i
+                || DVec2::new(other.pose.x, other.pose.y).distance(centre) > reach + other.length
+                || !boxes_overlap(&body, &other.footprint(0.0))
+        })
     }
 
     /// The figures as of the last look (once a simulated second), without
@@ -140,10 +161,15 @@ fn is_jammed_head(net: &LaneNetwork, index: &LaneIndex, v: &Vehicle) -> bool {
 }
 
 /// The lanes a jammed vehicle may be moved to, nearest first: the ordinary
-/// (non-junction) lanes of its way ahead, each with where it is held.
+/// (non-junction) lanes of its way ahead that hold its whole body (on a
+/// shorter one it would reach back over lanes it is not known on), each with
+/// where it is held.
 fn lanes_ahead(net: &LaneNetwork, v: &Vehicle) -> Vec<(LaneId, WayPlace)> {
     v.way_ahead()
-        .filter(|&(l, _)| !net.lane(l).intersection)
+        .filter(|&(l, _)| {
+            let lane = net.lane(l);
+            !lane.intersection && lane.length() >= v.length
+        })
         .collect()
 }
 
