@@ -113,6 +113,9 @@ impl ChunkItems {
             push_tail(net, items, p, rear, v.s, v.speed, i);
         }
         let blocked = &mut self.blocked;
+        // Read only for bodies in road conflicts (maps without junctions
+        // everywhere), once per body.
+        let mut off_centreline = None;
         for &(lane, occ) in items[first_item..].iter().filter(|(_, o)| !o.ghost) {
             for c in &net.lane(lane).conflicts {
                 // Sorted by zone start: the rest lie beyond the front.
@@ -129,7 +132,13 @@ impl ChunkItems {
                             source: lane,
                             vehicle: occ.vehicle,
                             road: c.road,
-                            room: c.room,
+                            room: if c.road {
+                                c.room
+                                    - *off_centreline
+                                        .get_or_insert_with(|| v.drawn_off_centreline(net))
+                            } else {
+                                c.room
+                            },
                             width: v.width,
                         },
                     ));

@@ -298,6 +298,31 @@ impl Vehicle {
         path.map(|(k, &l)| (l, WayPlace::Path(k))).chain(route)
     }
 
+    /// How far the body as drawn reaches sideways beyond where its place on
+    /// the centreline would put it, metres: a body across the joint of two
+    /// lanes at an angle, or on a bend, is the chord between its bumpers,
+    /// and the drawn pose turns like a car's and catches up over metres
+    /// where the lanes do not meet. The room beside it is that much less.
+    pub fn drawn_off_centreline(&self, net: &crate::network::LaneNetwork) -> f64 {
+        let heading = DVec2::from_angle(self.pose.yaw);
+        let centre = DVec2::new(self.pose.x, self.pose.y)
+            + heading * (self.front_offset - self.length * 0.5);
+        let mid = self.s - self.length * 0.5;
+        let (lane, s) = if mid >= 0.0 {
+            (self.path[0], mid)
+        } else {
+            match self.behind.latest() {
+                Some(p) => (p, net.lane(p).length() + mid),
+                None => return 0.0,
+            }
+        };
+        let line = &net.lane(lane).line;
+        let s = s.clamp(0.0, line.length());
+        let (at, _) = line.point_at(s);
+        let along = (line.point_at(s + 0.5).0 - line.point_at(s - 0.5).0).normalize_or_zero();
+        (centre - at).perp_dot(along).abs() + self.length * 0.5 * heading.perp_dot(along).abs()
+    }
+
     /// Metres the body is drawn behind its place on the path, at most: what
     /// the drawing has left over to catch up (see [`Sideways::residual`]).
     pub fn drawn_lag(&self) -> f64 {

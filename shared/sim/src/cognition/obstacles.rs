@@ -199,6 +199,9 @@ impl Search<'_, '_> {
     ) -> FrontObstacle {
         let v = self.v;
         let mut nearest = FrontObstacle::clear_to(best);
+        // Our own body as drawn may lie off our centreline: it needs that
+        // much more room on each side to pass (read once, for road zones).
+        let mut own_off = None;
         for z in self.snap.index.blocked_zones(lane) {
             let zone_start = offset + z.start;
             if offset + z.end <= 0.0 || zone_start > self.range {
@@ -224,7 +227,11 @@ impl Search<'_, '_> {
                 // A junction lane of our own path: its bodies are our leaders. A road
                 // conflict with our own path is a tight loop: the body is in the way.
                 || (!z.road && v.path.contains(&z.source))
-                || z.passable(v.width)
+                || (z.road
+                    && z.passable(
+                        v.width
+                            + 2.0 * *own_off.get_or_insert_with(|| v.drawn_off_centreline(self.snap.net)),
+                    ))
             {
                 continue;
             }
