@@ -241,15 +241,18 @@ impl Vehicle {
     /// side: the centreline model approximates a rigid body on curves to a
     /// few centimetres.
     pub fn footprint(&self, margin: f64) -> [DVec2; 4] {
-        let heading = DVec2::from_angle(self.pose.yaw);
-        let center = DVec2::new(self.pose.x, self.pose.y)
-            + heading * (self.front_offset - self.length * 0.5);
         crate::geometry::box_corners(
-            center,
+            self.drawn_centre(),
             self.pose.yaw,
             self.length * 0.5 - margin,
             self.width * 0.5 - margin,
         )
+    }
+
+    /// The centre of the body as published (the pose is the rear axle's).
+    pub fn drawn_centre(&self) -> DVec2 {
+        DVec2::new(self.pose.x, self.pose.y)
+            + DVec2::from_angle(self.pose.yaw) * (self.front_offset - self.length * 0.5)
     }
 
     /// Unit heading, kept in step with `pose.yaw` by the Control step.
@@ -305,8 +308,7 @@ impl Vehicle {
     /// where the lanes do not meet. The room beside it is that much less.
     pub fn drawn_off_centreline(&self, net: &crate::network::LaneNetwork) -> f64 {
         let heading = DVec2::from_angle(self.pose.yaw);
-        let centre = DVec2::new(self.pose.x, self.pose.y)
-            + heading * (self.front_offset - self.length * 0.5);
+        let centre = self.drawn_centre();
         let mid = self.s - self.length * 0.5;
         let (lane, s) = if mid >= 0.0 {
             (self.path[0], mid)

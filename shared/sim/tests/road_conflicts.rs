@@ -129,6 +129,28 @@ fn two_trucks_do_not_fit_side_by_side_on_narrow_lanes_but_two_cars_do() {
     }
 }
 
+/// Runs up to two minutes, no two bodies overlapping on any tick, until each
+/// vehicle is `past` metres along its exit lane (or gone), and no jam
+/// resolution helped.
+fn both_get_through(
+    w: &mut trafficmesh_sim::World,
+    what: &str,
+    exits: [(u64, &str); 2],
+    past: f64,
+) {
+    let beyond = |w: &trafficmesh_sim::World, (id, out): (u64, &str)| {
+        let out = w.network().lane_id(out).unwrap();
+        w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > past)
+    };
+    let done = run_until(w, 120.0, |w| {
+        let pairs = overlapping_pairs(w.vehicles(), 0.05);
+        assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
+        exits.iter().all(|&e| beyond(w, e))
+    });
+    assert!(done, "{what}: both are through within two minutes");
+    assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+}
+
 /// A road that leaves a junction lane and cuts back across that lane's end
 /// at a shallow angle: the crossing begins on the junction lane, before the
 /// lane the road conflict is found on.
@@ -175,17 +197,7 @@ fn a_vehicle_giving_way_where_a_crossing_begins_on_its_junction_lane_waits_befor
                 let b = w.place_vehicle("Taxi", b_lane, b_at, speed).unwrap();
                 let what =
                     format!("a on {a_lane} at {a_at} m, b on {b_lane} at {b_at} m, {speed} m/s");
-                let beyond = |w: &trafficmesh_sim::World, id: u64, out: &str| {
-                    let out = w.network().lane_id(out).unwrap();
-                    w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > 20.0)
-                };
-                let done = run_until(&mut w, 120.0, |w| {
-                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
-                    assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
-                    beyond(w, a, "a_out") && beyond(w, b, "b_out")
-                });
-                assert!(done, "{what}: both are through within two minutes");
-                assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+                both_get_through(&mut w, &what, [(a, "a_out"), (b, "b_out")], 20.0);
             }
         }
     }
@@ -228,17 +240,7 @@ fn two_trucks_each_nearer_to_one_of_two_zones_do_not_wait_for_each_other() {
                 let a = w.place_vehicle("Truck_2t", "s_in", a_at, va).unwrap();
                 let b = w.place_vehicle("Truck_2t", "n_in", b_at, vb).unwrap();
                 let what = format!("straight at {a_at} m, {va} m/s; turn at {b_at} m, {vb} m/s");
-                let beyond = |w: &trafficmesh_sim::World, id: u64, out: &str| {
-                    let out = w.network().lane_id(out).unwrap();
-                    w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > 30.0)
-                };
-                let done = run_until(&mut w, 120.0, |w| {
-                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
-                    assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
-                    beyond(w, a, "s_out") && beyond(w, b, "n_out")
-                });
-                assert!(done, "{what}: both are through within two minutes");
-                assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+                both_get_through(&mut w, &what, [(a, "s_out"), (b, "n_out")], 30.0);
             }
         }
     }

@@ -12,7 +12,8 @@ use super::{Perception, Snapshot};
 use crate::network::LaneNetwork;
 use crate::vehicle::Vehicle;
 
-const STOPPED_SPEED: f64 = 0.05;
+/// Slower than this a vehicle stands (and may be waiting for another).
+pub(crate) const STOPPED_SPEED: f64 = 0.05;
 /// No vehicle: the wait of one that waits for nobody.
 pub const NOBODY: u32 = u32::MAX;
 /// The junction a released vehicle goes through when its junction lane has

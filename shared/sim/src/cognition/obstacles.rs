@@ -23,8 +23,6 @@ const EXIT_ROOM_MARGIN: f64 =
 
 /// Zones closer than this along the path are one crossing, metres.
 const CONTIGUOUS_ZONES: f64 = 1.0;
-/// Slower than this, a vehicle stands.
-const STANDING_SPEED: f64 = 0.05;
 /// How far past a zone's start another's waiting point may lie (where it
 /// waits for a neighbouring zone of the same lanes) for it to count as
 /// waiting at that zone, metres.
@@ -66,6 +64,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         i,
         v,
         range: needed_lookahead(v.speed, snap.config),
+        room_needed: std::cell::OnceCell::new(),
     };
     let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
@@ -143,6 +142,10 @@ struct Search<'a, 'b> {
     i: usize,
     v: &'a Vehicle,
     range: f64,
+    /// The room we need to pass a body beside our way: our width, plus on
+    /// each side what our body as drawn lies off our centreline. Read only
+    /// for road conflicts, once.
+    room_needed: std::cell::OnceCell<f64>,
 }
 
 impl Search<'_, '_> {
@@ -199,9 +202,6 @@ impl Search<'_, '_> {
     ) -> FrontObstacle {
         let v = self.v;
         let mut nearest = FrontObstacle::clear_to(best);
-        // Our own body as drawn may lie off our centreline: it needs that
-        // much more room on each side to pass (read once, for road zones).
-        let mut own_off = None;
         for z in self.snap.index.blocked_zones(lane) {
             let zone_start = offset + z.start;
             if offset + z.end <= 0.0 || zone_start > self.range {
@@ -227,11 +227,8 @@ impl Search<'_, '_> {
                 // A junction lane of our own path: its bodies are our leaders. A road
                 // conflict with our own path is a tight loop: the body is in the way.
                 || (!z.road && v.path.contains(&z.source))
-                || (z.road
-                    && z.passable(
-                        v.width
-                            + 2.0 * *own_off.get_or_insert_with(|| v.drawn_off_centreline(self.snap.net)),
-                    ))
+                // Only road zones are passable; the room is read for them alone.
+                || (z.road && z.passable(self.room_needed()))
             {
                 continue;
             }
@@ -332,16 +329,20 @@ impl Search<'_, '_> {
                 (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
             })
     }
-}
 
-impl Search<'_, '_> {
+    fn room_needed(&self) -> f64 {
+        *self
+            .room_needed
+            .get_or_init(|| self.v.width + 2.0 * self.v.drawn_off_centreline(self.snap.net))
+    }
+
     /// Two lanes that come close twice (where they merge side by side) give
     /// two zones, and each of two vehicles may be nearer to one of them: each
     /// then stands before its zone waiting for the other. A standing vehicle
     /// whose own obstacle lies at this zone is waiting there, maybe for us:
     /// of two such, the lower id goes.
     fn waits_at_zone_for_lower_id(&self, w: &Vehicle, to_zone: f64) -> bool {
-        w.speed < STANDING_SPEED
+        w.speed < super::deadlock::STOPPED_SPEED
             && w.distance_to_front <= to_zone + ZONE_WAIT_TOLERANCE
             && self.v.id < w.id
     }
