@@ -7,6 +7,7 @@ mod crossing;
 pub mod files;
 pub mod grid;
 pub mod import;
+mod joints;
 mod lanelet2;
 mod sumo;
 pub mod sumo_routes;

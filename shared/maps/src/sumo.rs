@@ -159,6 +159,12 @@ pub fn import_with_programs(
         }
     }
     stretch_degenerate(&mut lanes, &index, &links);
+    let switchbacks = crate::joints::cut_switchbacks(&mut lanes, &index, &links);
+    if switchbacks > 0 {
+        warnings.push(format!(
+            "{switchbacks} lane joint(s) where the next lane starts heading back moved back along both lanes, to a corner a car can drive"
+        ));
+    }
 
     let mut programs = tl_programs(&doc, net, &mut warnings)?;
     programs.extend(replacements);

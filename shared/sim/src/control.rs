@@ -169,6 +169,8 @@ impl LimitsAhead {
 
 /// How far ahead a lower lane limit is slowed for, metres.
 const LIMIT_LOOKAHEAD: f64 = 100.0;
+/// The lane's direction at the rear bumper is read over this, metres.
+const REAR_TANGENT: f64 = 0.5;
 
 /// Recomputes the body from the arc position ([`place_body`]), then the pose
 /// drawn ([`crate::pose::draw`]), the body having moved `travelled` metres
@@ -207,5 +209,13 @@ pub fn place_body(net: &LaneNetwork, v: &mut Vehicle, fresh: bool) -> f64 {
     }
     v.front = front;
     v.back = back;
+    v.overhang = (0.5 * (v.length - length)).max(0.0);
+    if v.heading != before || fresh {
+        // Along the lane at the back (over the last half metre there).
+        let (further, _) = point_on_path(net, v, -v.length - REAR_TANGENT);
+        let lane_back = (back - further).normalize_or_zero();
+        let across = v.heading.perp_dot(lane_back).abs();
+        v.rear_reach = (v.overhang * v.heading.dot(lane_back) + 0.5 * v.width * across).max(0.0);
+    }
     0.5 * (z_front + z_back)
 }

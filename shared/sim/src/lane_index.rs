@@ -92,6 +92,7 @@ impl ChunkItems {
         // Where the body is drawn behind its place (see Vehicle::drawn_lag),
         // those behind keep clear of it there.
         let rear = v.rear_s() - v.drawn_lag();
+        let swing = (v.rear_reach - v.overhang).max(0.0);
         let body = |ghost| Occupant {
             rear,
             front: v.s,
@@ -122,13 +123,16 @@ impl ChunkItems {
                 if c.a0 > occ.front {
                     break;
                 }
-                if occ.rear <= c.a1 {
+                // A rear corner swung back over the lane behind holds up
+                // those following, not the lanes crossing the zone.
+                let rear = occ.rear + swing;
+                if rear <= c.a1 {
                     blocked.push((
                         c.other,
                         BlockedZone {
                             start: c.b0,
                             end: c.b1,
-                            parallel_rear: c.parallel.then(|| c.b0 + (occ.rear - c.a0).max(0.0)),
+                            parallel_rear: c.parallel.then(|| c.b0 + (rear - c.a0).max(0.0)),
                             source: lane,
                             vehicle: occ.vehicle,
                             road: c.road,

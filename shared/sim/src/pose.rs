@@ -2,6 +2,10 @@
 //! body. Cognition reads the body as the chord between its bumpers on the path
 //! (see [`crate::control::update_pose`]); the pose published is a car's:
 //!
+//! - the body is centred on that chord (on a sharp turn, where the chord is
+//!   shorter than the body, it reaches as far past either bumper: drawn from
+//!   the front bumper, a turning bus swung its tail into the lane beside, and
+//!   followers keep clear of that reach: `Vehicle::drawn_lag`);
 //! - the origin (rear axle) lies on that chord, but where it would move
 //!   further than a car's (an imported lane that does not start where the one
 //!   before it ends, a body spanning a drawn hairpin, a lane change on a
@@ -53,7 +57,7 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
         }
     }
     let normal = v.heading.perp();
-    let on_path = v.front - v.heading * v.front_offset;
+    let on_path = v.axle_on_path();
     let side = &mut v.sideways;
     let mut axle = on_path + normal * side.offset + side.residual;
     let target = wrap(v.body_yaw + side.angle);
@@ -89,7 +93,7 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
 pub fn start_sideways(v: &mut Vehicle, from: LaneId) {
     // Across and along the body's chord on the new lane.
     let normal = v.heading.perp();
-    let from_path = DVec2::new(v.pose.x, v.pose.y) - (v.front - v.heading * v.front_offset);
+    let from_path = DVec2::new(v.pose.x, v.pose.y) - v.axle_on_path();
     let offset = from_path.dot(normal);
     // The lanes' distance: what the body had left to go across before the
     // change does not count.

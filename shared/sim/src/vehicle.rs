@@ -208,6 +208,16 @@ pub struct Vehicle {
     pub heading: DVec2,
     pub body_yaw: f64,
     pub back: DVec2,
+    /// How far the body, drawn straight and centred on the chord between its
+    /// bumpers, reaches past each bumper's place on the path: nothing on a
+    /// straight lane, up to a metre or two on a sharp turn.
+    pub overhang: f64,
+    /// How far the rear corners of that body reach back past the rear
+    /// bumper's place, along the lane there: a body turned off that lane
+    /// swings a corner back over it (half its width times the sine of the
+    /// angle), as a car just turned into a junction reaches back over its
+    /// stop line.
+    pub rear_reach: f64,
     pub front_offset: f64,
     /// (path[0], s) when the body was last placed; NaN before the first.
     pub pose_at: (LaneId, f64),
@@ -326,10 +336,19 @@ impl Vehicle {
     }
 
     /// Metres the body is drawn behind its place on the path, at most: what
-    /// the drawing has left over to catch up (see [`Sideways::residual`]).
+    /// the drawing has left over to catch up (see [`Sideways::residual`]),
+    /// and how far its rear corners reach back past the rear bumper's place
+    /// along the lane there (see [`Vehicle::rear_reach`]).
     pub fn drawn_lag(&self) -> f64 {
         let r = self.sideways.residual;
-        if r == DVec2::ZERO { 0.0 } else { r.length() }
+        let behind = if r == DVec2::ZERO { 0.0 } else { r.length() };
+        behind + self.rear_reach
+    }
+
+    /// Where the origin (rear axle) lies on the chord between the bumpers,
+    /// the body centred on the chord.
+    pub fn axle_on_path(&self) -> DVec2 {
+        self.front - self.heading * (self.front_offset - self.overhang)
     }
 
     /// Arc length of the rear bumper on path[0]; negative while it is still on the lane behind.

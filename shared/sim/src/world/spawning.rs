@@ -259,6 +259,8 @@ impl World {
             pose_at: (LaneId::MAX, f64::NAN),
             front: DVec2::ZERO,
             back: DVec2::ZERO,
+            overhang: 0.0,
+            rear_reach: 0.0,
             heading: DVec2::X,
             body_yaw: 0.0,
             sideways: Default::default(),
