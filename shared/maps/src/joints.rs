@@ -9,7 +9,7 @@
 
 use std::collections::HashMap;
 
-use trafficmesh_model::map::{LaneDef, Point};
+use trafficmesh_model::map::{LaneDef, Point, ground_length};
 
 /// Metres the joint moves back per try...
 const STEP: f64 = 0.25;
@@ -54,7 +54,7 @@ fn cut_joint(before: &[Point], after: &[Point]) -> Option<(Vec<Point>, Vec<Point
     if !folds_back(before, after) {
         return None;
     }
-    let (len_b, len_a) = (length(before), length(after));
+    let (len_b, len_a) = (ground_length(before), ground_length(after));
     let most = MOST.min(len_b - KEEP).min(len_a - KEEP);
     let mut d = STEP;
     while d <= most {
@@ -76,17 +76,9 @@ fn cut_joint(before: &[Point], after: &[Point]) -> Option<(Vec<Point>, Vec<Point
 /// `after` starts (both measured over [`REACH`]).
 fn folds_back(before: &[Point], after: &[Point]) -> bool {
     let joint = after[0].0;
-    let u = sub(joint, at(before, length(before) - REACH));
+    let u = sub(joint, at(before, ground_length(before) - REACH));
     let w = sub(at(after, REACH), joint);
     u[0] * w[0] + u[1] * w[1] < 0.0
-}
-
-fn length(points: &[Point]) -> f64 {
-    points.windows(2).map(|w| dist(w[0].0, w[1].0)).sum()
-}
-
-fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
-    (b[0] - a[0]).hypot(b[1] - a[1])
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -97,7 +89,7 @@ fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 fn at(points: &[Point], s: f64) -> [f64; 3] {
     let mut left = s;
     for w in points.windows(2) {
-        let l = dist(w[0].0, w[1].0);
+        let l = w[0].ground_distance(w[1]);
         if left <= l && l > 0.0 {
             let k = left / l;
             return [0, 1, 2].map(|i| w[0].0[i] + (w[1].0[i] - w[0].0[i]) * k);
@@ -116,7 +108,7 @@ fn up_to(points: &[Point], s: f64) -> Vec<Point> {
     let mut out = vec![points[0]];
     let mut walked = 0.0;
     for w in points.windows(2) {
-        let l = dist(w[0].0, w[1].0);
+        let l = w[0].ground_distance(w[1]);
         if walked + l >= s {
             break;
         }
@@ -132,7 +124,7 @@ fn from(points: &[Point], s: f64) -> Vec<Point> {
     let mut out = vec![Point(at(points, s))];
     let mut walked = 0.0;
     for w in points.windows(2) {
-        walked += dist(w[0].0, w[1].0);
+        walked += w[0].ground_distance(w[1]);
         if walked > s {
             out.push(w[1]);
         }

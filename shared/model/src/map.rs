@@ -37,6 +37,10 @@ impl Point {
     pub fn is_finite(&self) -> bool {
         self.0.iter().all(|c| c.is_finite())
     }
+    /// Distance to `other` in the ground plane (x, y), metres.
+    pub fn ground_distance(&self, other: Point) -> f64 {
+        (other.0[0] - self.0[0]).hypot(other.0[1] - self.0[1])
+    }
 }
 
 fn default_width() -> f64 {
@@ -86,11 +90,13 @@ pub struct LaneDef {
 impl LaneDef {
     /// Length of the centreline in the ground plane, metres.
     pub fn length(&self) -> f64 {
-        self.waypoints
-            .windows(2)
-            .map(|w| (w[1].0[0] - w[0].0[0]).hypot(w[1].0[1] - w[0].0[1]))
-            .sum()
+        ground_length(&self.waypoints)
     }
+}
+
+/// Length of a polyline in the ground plane, metres.
+pub fn ground_length(points: &[Point]) -> f64 {
+    points.windows(2).map(|w| w[0].ground_distance(w[1])).sum()
 }
 
 /// A fixed-time program: green, then yellow, then red, repeating; `offset`

@@ -202,15 +202,13 @@ pub fn place_body(net: &LaneNetwork, v: &mut Vehicle, fresh: bool) -> f64 {
     if length > 1e-6 {
         v.heading = body / length;
     }
-    // The same heading (a body moving along a straight lane) has the same
-    // angle without another atan2.
-    if v.heading != before || fresh {
-        v.body_yaw = v.heading.y.atan2(v.heading.x);
-    }
     v.front = front;
     v.back = back;
     v.overhang = (0.5 * (v.length - length)).max(0.0);
+    // The same heading (a body moving along a straight lane) has the same
+    // angle and reach without another atan2 or look along the lane.
     if v.heading != before || fresh {
+        v.body_yaw = v.heading.y.atan2(v.heading.x);
         // Along the lane at the back (over the last half metre there).
         let (further, _) = point_on_path(net, v, -v.length - REAR_TANGENT);
         let lane_back = (back - further).normalize_or_zero();

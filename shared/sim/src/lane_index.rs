@@ -92,7 +92,7 @@ impl ChunkItems {
         // Where the body is drawn behind its place (see Vehicle::drawn_lag),
         // those behind keep clear of it there.
         let rear = v.rear_s() - v.drawn_lag();
-        let swing = (v.rear_reach - v.overhang).max(0.0);
+        let swing = v.rear_corner_swing();
         let body = |ghost| Occupant {
             rear,
             front: v.s,
@@ -123,8 +123,6 @@ impl ChunkItems {
                 if c.a0 > occ.front {
                     break;
                 }
-                // A rear corner swung back over the lane behind holds up
-                // those following, not the lanes crossing the zone.
                 let rear = occ.rear + swing;
                 if rear <= c.a1 {
                     blocked.push((

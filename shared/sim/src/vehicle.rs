@@ -345,6 +345,13 @@ impl Vehicle {
         behind + self.rear_reach
     }
 
+    /// The part of [`Vehicle::rear_reach`] beyond the body's overhang: a rear
+    /// corner swung back over the lane behind. Those following keep clear
+    /// of it; lanes crossing a zone the body leaves do not wait for it.
+    pub fn rear_corner_swing(&self) -> f64 {
+        (self.rear_reach - self.overhang).max(0.0)
+    }
+
     /// Where the origin (rear axle) lies on the chord between the bumpers,
     /// the body centred on the chord.
     pub fn axle_on_path(&self) -> DVec2 {

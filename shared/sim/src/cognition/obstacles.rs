@@ -276,30 +276,32 @@ impl Search<'_, '_> {
     fn where_crossing_begins(&self, claimant: u32, ours: f64) -> Option<f64> {
         let theirs = &self.snap.vehicles[claimant as usize].path;
         let theirs = &theirs[..theirs.len().min(3)];
-        let mut zones: Vec<(f64, f64)> = Vec::new();
+        // The zones with their path before `ours`, in order along our path
+        // (each lane's are sorted by start): the last run of them with gaps
+        // under CONTIGUOUS_ZONES, if it reaches `ours`, is the crossing.
+        let mut run: Option<(f64, f64)> = None;
         for (_, lane, offset) in lanes_ahead(self.snap.net, self.v) {
             if offset >= ours {
                 break;
             }
-            zones.extend(
-                self.snap
-                    .net
-                    .lane(lane)
-                    .conflicts
-                    .iter()
-                    .filter(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0)
-                    .map(|c| (offset + c.a0, offset + c.a1)),
-            );
+            let zones = self.snap.net.lane(lane).conflicts.iter();
+            for c in zones.filter(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0) {
+                let (a0, a1) = (offset + c.a0, offset + c.a1);
+                if a0 >= ours {
+                    break;
+                }
+                run = match run {
+                    Some((start, end)) if a0 <= end + CONTIGUOUS_ZONES => {
+                        Some((start, end.max(a1)))
+                    }
+                    _ => Some((a0, a1)),
+                };
+            }
         }
-        let mut begins = ours;
-        while let Some(start) = zones
-            .iter()
-            .filter(|&&(a0, a1)| a0 < begins && a1 >= begins - CONTIGUOUS_ZONES)
-            .map(|&(a0, _)| a0)
-            .reduce(f64::min)
-        {
-            begins = start;
-        }
+        let begins = match run {
+            Some((start, end)) if end >= ours - CONTIGUOUS_ZONES => start,
+            _ => ours,
+        };
         (begins > 0.0).then_some(begins)
     }
 
