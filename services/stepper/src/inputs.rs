@@ -32,10 +32,13 @@ pub struct StepperStatus {
     pub max_wait_s: f64,
     /// Vehicles standing for 60 s or more, not at a red light (once a second).
     pub stuck_vehicles: usize,
-    /// Jammed vehicles moved on or taken off by the jam timeout.
+    /// Jammed vehicles moved on or taken off by the jam timeout or to
+    /// break a gridlock.
     pub jam_resolutions: u64,
     /// Of those, the ones taken off the road.
     pub jam_removals: u64,
+    /// Of those, the ones moved to break a gridlock before the timeout.
+    pub gridlocks_broken: u64,
     /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
     pub red_light_crossings: u64,
     pub batches_dropped: u64,

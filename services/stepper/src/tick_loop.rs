@@ -140,6 +140,7 @@ pub fn run(
             s.stuck_vehicles = stuck;
             s.jam_resolutions = waits.jam_resolutions;
             s.jam_removals = waits.jam_removals;
+            s.gridlocks_broken = waits.gridlocks_broken;
             s.red_light_crossings = world.red_light_crossings();
             s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
             s.crosswalks_stale = world.occupancy().is_stale();

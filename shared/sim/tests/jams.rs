@@ -397,3 +397,112 @@ fn a_vehicle_waiting_for_a_body_of_another_lane_across_its_way_is_a_jammed_head(
         "the one its red light holds stays"
     );
 }
+
+/// A one-way ring around a block: four 80 m roads joined at the corners by
+/// junction lanes, each road packed with standing taxis from end to start.
+/// Each taxi's route turns onto the next road and leaves the ring at that
+/// road's end, straight on past the corner; but every queue's head waits for
+/// room on the next road, whose queue waits for the one after. Returns the
+/// world and the taxis' ids.
+fn gridlocked_ring(config: WorldConfig) -> (trafficmesh_sim::World, Vec<u64>) {
+    let corners = [[100.0, 0.0], [100.0, 100.0], [0.0, 100.0], [0.0, 0.0]];
+    let name = |what: &str, k: usize| format!("{what}{}", k % 4);
+    let mut lanes = Vec::new();
+    for k in 0..4 {
+        let (c0, c1, c2) = (corners[(k + 3) % 4], corners[k], corners[(k + 1) % 4]);
+        let at =
+            |a: [f64; 2], b: [f64; 2], t: f64| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+        let (corner, leave, exit) = (name("corner", k), name("leave", k), name("exit", k));
+        lanes.push(lane(
+            &name("road", k),
+            &[at(c0, c1, 0.1), at(c0, c1, 0.9)],
+            &[&corner, &leave],
+        ));
+        let mut turn = lane(
+            &corner,
+            &[at(c0, c1, 0.9), c1, at(c1, c2, 0.1)],
+            &[&name("road", k + 1)],
+        );
+        turn["intersection"] = json!(true);
+        lanes.push(turn);
+        let mut straight = lane(&leave, &[at(c0, c1, 0.9), at(c0, c1, 1.1)], &[&exit]);
+        straight["intersection"] = json!(true);
+        lanes.push(straight);
+        lanes.push(lane(&exit, &[at(c0, c1, 1.1), at(c0, c1, 3.0)], &[]));
+    }
+    let mut w = world(&map(lanes, json!({})), config);
+    let mut ids = Vec::new();
+    for k in 0..4 {
+        let route = [
+            name("road", k),
+            name("corner", k),
+            name("road", k + 1),
+            name("leave", k + 1),
+            name("exit", k + 1),
+        ];
+        let route: Vec<&str> = route.iter().map(String::as_str).collect();
+        for slot in 0..6 {
+            let front = 80.0 - 12.0 * slot as f64;
+            ids.push(
+                w.place_vehicle_on_route("Taxi", &route, front, 0.0)
+                    .unwrap(),
+            );
+        }
+    }
+    (w, ids)
+}
+
+/// A gridlock through several junctions (no rule holds anyone, so no right
+/// of way can be given) is found in the waits and broken as soon as the whole
+/// ring has stood for the gridlock patience, long before the jam timeout:
+/// one head is moved on, and the ring drains with nobody stuck.
+#[test]
+fn a_ring_of_full_roads_is_broken_as_a_gridlock_and_drains() {
+    let (mut w, ids) = gridlocked_ring(WorldConfig::default());
+    let patience = trafficmesh_sim::world::GRIDLOCK_PATIENCE;
+    let broken = run_until(&mut w, 90.0, |w| w.wait_stats().jam_resolutions > 0);
+    assert!(broken, "the gridlock is still there after 90 s");
+    let stats = w.wait_stats();
+    assert_eq!(stats.jam_resolutions, 1, "one head moved on: {stats:?}");
+    assert_eq!(stats.gridlocks_broken, 1);
+    assert!(
+        stats.max_wait >= patience && stats.max_wait < trafficmesh_sim::world::STUCK_AFTER,
+        "broken when the longest had stood {} s",
+        stats.max_wait
+    );
+    let mut overlaps = 0;
+    let drained = run_until(&mut w, 240.0, |w| {
+        overlaps += overlapping_pairs(w.vehicles(), 0.0).len();
+        w.vehicles().is_empty()
+    });
+    let left: Vec<_> = ids.iter().filter(|&&id| w.vehicle(id).is_some()).collect();
+    assert!(
+        drained,
+        "still in the ring after 240 s: {left:?}, {:?}",
+        w.wait_stats()
+    );
+    // Each break frees one slot, and a ring this full may lock again
+    // before those who came around leave: at most once per road, and never
+    // with anyone standing for a minute.
+    let stats = w.wait_stats();
+    assert!(stats.jam_resolutions <= 4, "{stats:?}");
+    assert_eq!(stats.gridlocks_broken, stats.jam_resolutions);
+    assert!(
+        stats.max_wait < trafficmesh_sim::world::STUCK_AFTER,
+        "{stats:?}"
+    );
+    assert_eq!(overlaps, 0, "overlapping pair-ticks");
+}
+/// Breaking a gridlock teleports a vehicle, as the jam timeout does: a run
+/// with the timeout off keeps every vehicle where it is.
+#[test]
+fn with_the_jam_timeout_at_zero_a_gridlock_is_left_alone() {
+    let config = WorldConfig {
+        jam_timeout: 0.0,
+        ..WorldConfig::default()
+    };
+    let (mut w, ids) = gridlocked_ring(config);
+    run_for(&mut w, 90.0);
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+    assert_eq!(w.stuck_vehicles(), ids.len());
+}

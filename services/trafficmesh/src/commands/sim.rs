@@ -117,10 +117,12 @@ struct Summary {
     /// Vehicles standing for 60 s or more at the end, not at a red light.
     stuck_vehicles: usize,
     /// Jammed vehicles moved on (or, with no room ahead, taken off the road)
-    /// by `--jam-timeout`.
+    /// by `--jam-timeout` or to break a gridlock.
     jam_resolutions: u64,
     /// Of those, the ones taken off the road.
     jam_removals: u64,
+    /// Of those, the ones moved to break a gridlock before the timeout.
+    gridlocks_broken: u64,
     /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
     red_light_crossings: u64,
     branch_decisions: u64,
@@ -314,6 +316,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         stuck_vehicles: world.stuck_vehicles(),
         jam_resolutions: waits.jam_resolutions,
         jam_removals: waits.jam_removals,
+        gridlocks_broken: waits.gridlocks_broken,
         red_light_crossings: world.red_light_crossings(),
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),

@@ -115,3 +115,42 @@ pub fn break_cycles(
     }
     releases.len()
 }
+
+/// The cycles of bodies alone (no rule holds any member, so [`break_cycles`]
+/// cannot release one) whose every member has stood still for `patience`
+/// seconds: full lanes around a block, each queue's head waiting for room on
+/// the next, through as many junctions as the ring passes. Nobody in one can
+/// ever move again without help. Each cycle is given by its members' indices.
+pub fn gridlocks(vehicles: &[Vehicle], waits: &[Wait], patience: f64) -> Vec<Vec<usize>> {
+    let n = vehicles.len();
+    let patient = |i: usize| waits[i].0 != NOBODY && vehicles[i].trip.wait >= patience;
+    let mut walk_of = vec![NOBODY; n];
+    let mut cycles = Vec::new();
+    for start in 0..n {
+        if walk_of[start] != NOBODY || !patient(start) {
+            continue;
+        }
+        let mut cur = start;
+        loop {
+            walk_of[cur] = start as u32;
+            let next = waits[cur].0 as usize;
+            if walk_of[next] == start as u32 {
+                let mut cycle = vec![next];
+                let mut k = waits[next].0 as usize;
+                while k != next {
+                    cycle.push(k);
+                    k = waits[k].0 as usize;
+                }
+                if cycle.iter().all(|&k| !waits[k].1) {
+                    cycles.push(cycle);
+                }
+                break;
+            }
+            if walk_of[next] != NOBODY || !patient(next) {
+                break;
+            }
+            cur = next;
+        }
+    }
+    cycles
+}

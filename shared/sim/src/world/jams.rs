@@ -2,12 +2,16 @@
 //! waiting. As SUMO does with `time-to-teleport`: a vehicle at the head of its
 //! lane that has stood still for the jam timeout is moved to the start of the
 //! next lane of its way where it fits, or, where none does, taken off the
-//! road; either way it is counted.
+//! road; either way it is counted. A ring of queues that wait on each other
+//! (a gridlock, found in the waits) cannot clear by itself: one head in it is
+//! moved on as soon as the whole ring has stood for [`GRIDLOCK_PATIENCE`],
+//! without waiting out the timeout.
 
 use glam::DVec2;
 use trafficmesh_model::LightColor;
 
 use super::World;
+use crate::cognition::deadlock::{self, Wait};
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
 use crate::geometry::boxes_overlap;
@@ -20,6 +24,11 @@ use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
 const JAM_CHECK_INTERVAL: u64 = 50;
 /// Standing this long (away from a red light) makes a vehicle stuck.
 pub const STUCK_AFTER: f64 = 60.0;
+/// Seconds every member of a gridlock must have stood before one is moved
+/// on: well under [`STUCK_AFTER`], so that a ring is gone before its
+/// vehicles count as stuck, and long enough that queues which are only slow
+/// (all standing a moment at once) are left alone.
+pub const GRIDLOCK_PATIENCE: f64 = 10.0;
 /// A body whose front is this little ahead of ours is our own (the index is
 /// a tick old; a jammed vehicle has stood still since).
 const FRONT_TOLERANCE: f64 = 0.01;
@@ -27,10 +36,13 @@ const FRONT_TOLERANCE: f64 = 0.01;
 /// What the world has seen of waiting, for `sim --json` and the stepper status.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WaitStats {
-    /// Jammed vehicles moved on or taken off the road by the jam timeout.
+    /// Jammed vehicles moved on or taken off the road by the jam timeout
+    /// or to break a gridlock.
     pub jam_resolutions: u64,
     /// Of those, the ones taken off the road (no lane ahead had room).
     pub jam_removals: u64,
+    /// Of those, the ones moved to break a gridlock before the timeout.
+    pub gridlocks_broken: u64,
     /// The longest standstill any vehicle has had so far, seconds.
     pub max_wait: f64,
 }
@@ -46,12 +58,15 @@ impl World {
             return placed;
         }
         let timeout = self.config.jam_timeout;
+        let gridlocked = std::mem::take(&mut self.gridlocked);
         let mut jammed: Vec<(u64, usize)> = Vec::new();
         for (i, v) in self.vehicles.iter().enumerate() {
             self.wait_stats.max_wait = self.wait_stats.max_wait.max(v.trip.wait);
-            if timeout > 0.0 && v.trip.wait >= timeout && is_jammed_head(&self.net, &self.index, v)
-            {
+            let timed_out = timeout > 0.0 && v.trip.wait >= timeout;
+            let in_gridlock = gridlocked.contains(&v.id);
+            if (timed_out || in_gridlock) && is_jammed_head(&self.net, &self.index, v) {
                 jammed.push((v.id, i));
+                self.wait_stats.gridlocks_broken += u64::from(in_gridlock && !timed_out);
             }
         }
         if jammed.is_empty() {
@@ -85,6 +100,30 @@ impl World {
             }
         }
         placed
+    }
+
+    /// On the tick before a look for jammed vehicles: notes one head of each
+    /// gridlock in this tick's waits (the lowest id), for the look to move
+    /// on. Off with the jam timeout: a run that never teleports keeps its
+    /// gridlocks.
+    pub(super) fn note_gridlocks(&mut self, waits: &[Wait]) {
+        let timeout = self.config.jam_timeout;
+        if timeout <= 0.0 || !(self.ticks + 1).is_multiple_of(JAM_CHECK_INTERVAL) {
+            return;
+        }
+        let patience = GRIDLOCK_PATIENCE.min(timeout);
+        let (net, index, vehicles) = (&self.net, &self.index, &self.vehicles);
+        self.gridlocked = deadlock::gridlocks(vehicles, waits, patience)
+            .into_iter()
+            .filter_map(|cycle| {
+                cycle
+                    .into_iter()
+                    .map(|i| &vehicles[i])
+                    .filter(|v| is_jammed_head(net, index, v))
+                    .map(|v| v.id)
+                    .min()
+            })
+            .collect();
     }
 
     /// Vehicle `i` moved to `lane` would touch no other body. The spawn check

@@ -32,7 +32,7 @@ use crate::trajectory::TrajectoryHash;
 use crate::vehicle::{Vehicle, VehicleId};
 
 pub use crate::parallel::MIN_VEHICLES_PER_TASK;
-pub use jams::{STUCK_AFTER, WaitStats};
+pub use jams::{GRIDLOCK_PATIENCE, STUCK_AFTER, WaitStats};
 #[cfg(feature = "bench")]
 pub use phases::{Phase, PhaseTimes};
 pub use red_lights::{RED_GRACE, RedLightCrossing};
@@ -146,6 +146,8 @@ pub struct World {
     red_crossing_count: u64,
     /// The vehicles the jam timeout moved on this tick.
     relocated: Vec<VehicleId>,
+    /// One head of each gridlock found, for the next look for jams.
+    gridlocked: Vec<VehicleId>,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
 }
@@ -188,6 +190,7 @@ impl World {
             wait_stats: jams::WaitStats::default(),
             red_crossings: Vec::new(),
             relocated: Vec::new(),
+            gridlocked: Vec::new(),
             red_crossing_count: 0,
             walkers: None,
         }

@@ -96,6 +96,7 @@ impl World {
         self.cognition(&mut perceptions, &mut waits);
         self.phase_times.lap(Phase::Cognition);
         deadlock::break_cycles(&self.net, &self.vehicles, &waits, &mut perceptions);
+        self.note_gridlocks(&waits);
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
