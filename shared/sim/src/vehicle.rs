@@ -152,6 +152,11 @@ pub struct TripStats {
     pub depart: f64,
     /// Seconds it has stood still without a break (SUMO's waiting time).
     pub wait: f64,
+    /// Seconds it has been held by the rules of the junction it is at or
+    /// before, at a crawl at most (creeping to its stop point does not end
+    /// the wait), until it leaves that junction: its impatience grows with
+    /// it.
+    pub held_by_rule: f64,
     /// Seconds lost against driving at its lanes' speed limits throughout.
     pub time_loss: f64,
     pub distance: f64,

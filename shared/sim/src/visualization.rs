@@ -43,6 +43,11 @@ pub fn update_trip(v: &mut Vehicle, dt: f64, speed_limit: f64) {
     } else {
         v.trip.wait = 0.0;
     }
+    if v.speed < crate::cognition::right_of_way::CRAWL_SPEED
+        && v.yield_phase.is_yielding_due_to_rules()
+    {
+        v.trip.held_by_rule += dt;
+    }
     if speed_limit > 0.0 {
         v.trip.time_loss += dt * (1.0 - v.speed / speed_limit).max(0.0);
     }

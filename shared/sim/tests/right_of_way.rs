@@ -193,3 +193,82 @@ fn a_vehicle_released_from_a_deadlock_is_not_held_again_by_the_one_it_waited_for
     assert!(held, "B never held for A: no deadlock to break");
     assert!(through, "A and B still wait for each other after 30 s");
 }
+
+/// A minor road from the south meets a priority road from the west, whose
+/// 600 m approach (5 m/s limit) carries a steady slow stream: a taxi every
+/// 14 m, one always within reach of the junction, for two minutes.
+fn minor_road_against_a_slow_stream() -> (World, u64, Vec<u64>) {
+    let mut lanes = vec![
+        lane("S_in", &[[1.75, -110.0], [1.75, -10.0]], &["S_x"]),
+        lane("S_out", &[[1.75, 10.0], [1.75, 200.0]], &[]),
+        lane("W_out", &[[10.0, -1.75], [200.0, -1.75]], &[]),
+    ];
+    let mut approach = lane("W_in", &[[-610.0, -1.75], [-10.0, -1.75]], &["W_x"]);
+    approach["speed_limit"] = json!(5.0);
+    lanes.push(approach);
+    let mut s_x = lane("S_x", &[[1.75, -10.0], [1.75, 10.0]], &["S_out"]);
+    s_x["intersection"] = json!(true);
+    s_x["right_of_way"] = json!(["W_x"]);
+    lanes.push(s_x);
+    let mut w_x = lane("W_x", &[[-10.0, -1.75], [10.0, -1.75]], &["W_out"]);
+    w_x["intersection"] = json!(true);
+    lanes.push(w_x);
+    let config = WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    let mut w = world(&map(lanes, json!({})), config);
+    let stream = (0..40)
+        .map(|k| {
+            let front = 590.0 - 14.0 * k as f64;
+            w.place_vehicle("Taxi", "W_in", front, 5.0).unwrap()
+        })
+        .collect();
+    let minor = w.place_vehicle("Taxi", "S_in", 90.0, 0.0).unwrap();
+    (w, minor, stream)
+}
+
+/// Impatience (SUMO's): a vehicle that has yielded for a while to a stream
+/// that never leaves a gap goes before a priority vehicle that can still
+/// stop for it comfortably, and that one stops. Before, it stood until the
+/// stream ended.
+#[test]
+fn a_vehicle_yielding_to_a_stream_without_gaps_grows_impatient_and_goes() {
+    let (mut w, minor, stream) = minor_road_against_a_slow_stream();
+    let w_in = w.network().lane_id("W_in").unwrap();
+    let mut yielded_to = std::collections::BTreeSet::new();
+    let crossed = run_until(&mut w, 90.0, |w| {
+        assert_no_overlap(w);
+        let m = vehicle(w, minor);
+        if m.yield_phase == YieldPhase::LanesRulesEnteringIntersection {
+            yielded_to.extend(m.dominating);
+        }
+        m.front.y > 10.0
+    });
+    assert!(crossed, "still waiting after 90 s");
+    assert!(
+        yielded_to.len() >= 3,
+        "it did not wait for the stream first: yielded to {yielded_to:?}"
+    );
+    let still_coming = stream
+        .iter()
+        .filter(|&&id| w.vehicle(id).is_some_and(|v| v.path[0] == w_in))
+        .count();
+    assert!(
+        still_coming > 10,
+        "the stream had ended: {still_coming} left"
+    );
+    assert!(
+        w.time() < trafficmesh_sim::world::STUCK_AFTER + 5.0,
+        "it went only after {:.0} s",
+        w.time()
+    );
+    // The stream stops for it, and nobody touches anybody.
+    run_until(&mut w, 30.0, |w| {
+        assert_no_overlap(w);
+        false
+    });
+}

@@ -28,7 +28,14 @@ const OVERRUN_TO_START: f64 = -0.5;
 const OVERRUN_TO_CANCEL: f64 = -1.0;
 const EGO_LATERAL: f64 = 2.0;
 /// Below this a vehicle before the junction is standing, not crossing.
-const CRAWL_SPEED: f64 = 0.5;
+pub(crate) const CRAWL_SPEED: f64 = 0.5;
+/// Held this long by a junction's rule, a vehicle is wholly impatient,
+/// seconds: a minute, when a vehicle counts as stuck. (SUMO's
+/// time-to-impatience is 180 s, against streams its drivers enter at smaller
+/// gaps than the reference's.)
+pub const IMPATIENCE_TIME: f64 = 60.0;
+/// Room left between the other's stopping point and the junction, metres.
+const CUT_IN_MARGIN: f64 = 3.0;
 const EGO_ANGLE_DEG: f64 = 30.0;
 
 /// What the predicates read about a vehicle, the own one and the others of its
@@ -51,6 +58,9 @@ pub struct RowInfo {
     /// path[0] and path[1].
     pub lane: LaneId,
     pub next_lane: Option<LaneId>,
+    /// In the padding before `first_int`: a wider field would take a third
+    /// cache line.
+    pub speed: f32,
     /// (index in path, lane) of the first intersection lane on the path.
     pub first_int: Option<(usize, LaneId)>,
     /// First point of the first junction lane (the approach it enters from).
@@ -64,6 +74,9 @@ pub struct RowInfo {
     pub id: VehicleId,
 }
 
+// Two cache lines, no more.
+const _: () = assert!(std::mem::size_of::<RowInfo>() == 128);
+
 impl RowInfo {
     pub fn of(v: &Vehicle) -> Self {
         let seen = RowInfo {
@@ -71,6 +84,7 @@ impl RowInfo {
             back: v.back,
             yaw: v.body_yaw,
             rear_s: v.rear_s(),
+            speed: v.speed as f32,
             id: v.id,
             lane: v.path[0],
             yield_phase: v.yield_phase,
@@ -474,6 +488,7 @@ impl Ctx<'_, '_> {
                     && !self.same_side(o)
                     && self.on_right(o)
                     && self.intersect_overall(o)
+                    && !self.impatient_enough_to_cut_in_before(o)
             })
             .map(|o| (Some(o.id), self.stop_before_junction()))
     }
@@ -498,6 +513,10 @@ impl Ctx<'_, '_> {
         self.others()
             .find(|o| {
                 o.on_intersection
+                    // Let through, or impatient, we go: one holding on the
+                    // junction may hold for us (a body in our way still stops us).
+                    && !((self.released || self.v.trip.held_by_rule > 0.0)
+                        && o.yield_phase == YieldPhase::ForcingPriority)
                     && !(o.yield_phase.is_yielding_due_to_rules() && self.parallelish(o))
                     && !self.same_side(o)
                     && self.intersect_overall(o)
@@ -560,6 +579,7 @@ impl Ctx<'_, '_> {
                             && o.yield_phase != YieldPhase::IntersectionBlocked))
                     && self.dominates(o, priority_lane)
                     && self.intersect_overall(o)
+                    && !self.impatient_enough_to_cut_in_before(o)
             });
             if let Some(o) = npc {
                 return Some((Some(o.id), stop));
@@ -571,6 +591,24 @@ impl Ctx<'_, '_> {
             }
         }
         None
+    }
+
+    /// Impatience, as SUMO's: the longer a vehicle has been held by a rule,
+    /// the harder it lets a priority vehicle brake for it. It goes before one
+    /// not yet in the junction that could still stop before the junction
+    /// braking at our impatience (0 to 1, growing over [`IMPATIENCE_TIME`])
+    /// times the sudden deceleration. Once we move, that one holds in
+    /// FORCING_PRIORITY for us when it comes onto the junction, or waits
+    /// before it while we are on it. Impatience lasts until we leave the
+    /// junction, so that we do not stop again halfway.
+    fn impatient_enough_to_cut_in_before(&self, o: &RowInfo) -> bool {
+        let impatience = (self.v.trip.held_by_rule / IMPATIENCE_TIME).min(1.0);
+        if o.on_intersection || impatience <= 0.0 {
+            return false;
+        }
+        let speed = f64::from(o.speed);
+        let braking = speed * speed / (2.0 * impatience * self.snap.config.sudden_deceleration);
+        o.front.distance(o.entry) >= braking + CUT_IN_MARGIN
     }
 
     /// The other vehicle is on, or about to enter, `lane` as its first junction lane.

@@ -181,17 +181,18 @@ fn follow_lanes_of(
     if v.should_despawn && v.despawn_reason.is_none() {
         v.despawn_reason = Some(DespawnReason::DeadEnd);
     }
-    // A release by deadlock breaking lasts until the vehicle leaves its
-    // junction: this tick it moved from a junction lane onto an ordinary one.
+    // A release by deadlock breaking, and impatience, last until the vehicle
+    // leaves its junction: this tick it moved from a junction lane onto an
+    // ordinary one.
     // (Standing on an ordinary lane right after another junction is not
     // leaving: that dropped each release the tick after it was given, and the
     // two vehicles of a cycle took turns creeping.)
-    if v.forced_through.is_some()
-        && before.0 != v.path[0]
+    if before.0 != v.path[0]
         && !net.lane(v.path[0]).intersection
         && v.behind.latest().is_some_and(|p| net.lane(p).intersection)
     {
         v.forced_through = None;
+        v.trip.held_by_rule = 0.0;
     }
     made
 }

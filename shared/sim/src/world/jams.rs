@@ -245,4 +245,5 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, place: WayPlace) {
     v.shadow = None;
     crate::control::update_pose(net, v, 0.0);
     v.trip.wait = 0.0;
+    v.trip.held_by_rule = 0.0;
 }
