@@ -43,6 +43,7 @@ mod vehicle;
 mod visualization;
 pub mod world;
 
+pub use cognition::right_of_way::IMPATIENCE_TIME;
 pub use ego::Ego;
 pub use events::{DespawnReason, SimEvent, TripRecord};
 pub use network::{LaneId, LaneNetwork};

@@ -14,6 +14,15 @@ fn crossing(yields: [&[&str]; 4]) -> MapFile {
     crossing_with_lead_in(yields, false)
 }
 
+/// The crossing with extra top-level map fields (crosswalks).
+fn crossing_with(yields: [&[&str]; 4], extra: serde_json::Value) -> MapFile {
+    let mut m = serde_json::to_value(crossing(yields)).unwrap();
+    for (k, v) in extra.as_object().unwrap() {
+        m[k] = v.clone();
+    }
+    serde_json::from_value(m).unwrap()
+}
+
 /// The crossing; with `lead_in`, each approach is 30 m long and comes out of
 /// a junction lane of its own (`X_pre`, 10 m), as where junctions follow
 /// closely.
@@ -268,6 +277,62 @@ fn a_vehicle_yielding_to_a_stream_without_gaps_grows_impatient_and_goes() {
     );
     // The stream stops for it, and nobody touches anybody.
     run_until(&mut w, 30.0, |w| {
+        assert_no_overlap(w);
+        false
+    });
+}
+
+/// A priority vehicle standing right at the junction's entrance (too near
+/// to count on its stopping), held there for good (the lane after the
+/// junction has no room: a walker who never leaves holds the car on it), is
+/// no stream to wait for forever: a vehicle its rule holds grows wholly
+/// impatient in a minute and crosses before it.
+#[test]
+fn a_vehicle_crosses_before_a_priority_vehicle_that_stands_for_good() {
+    let zebra = json!({
+        "crosswalks": [{
+            "name": "Zebra",
+            "area": { "shape": "box", "center": [30.0, -1.75], "half_extents": [2.0, 6.0] },
+            "stop_points": [{ "position": [27.0, -1.75] }]
+        }]
+    });
+    let mut w = world(
+        &crossing_with([&["W_x"], &[], &[], &[]], zebra),
+        WorldConfig::default(),
+    );
+    w.crosswalk_enter(
+        "Zebra",
+        "Human_01",
+        trafficmesh_sim::crosswalk::OccupantType::NpcPedestrian,
+    )
+    .unwrap();
+    let held = w.place_vehicle("Taxi", "W_out", 12.0, 0.0).unwrap();
+    let priority = w.place_vehicle("Taxi", "W_in", 99.0, 0.0).unwrap();
+    let minor = w.place_vehicle("Taxi", "S_in", 95.0, 0.0).unwrap();
+    let mut yielded = false;
+    let crossed = run_until(&mut w, 120.0, |w| {
+        assert_no_overlap(w);
+        let m = vehicle(w, minor);
+        yielded |= m.yield_phase == YieldPhase::LanesRulesEnteringIntersection
+            && m.dominating == Some(priority);
+        m.front.y > 10.0
+    });
+    assert!(yielded, "it never yielded to the standing priority vehicle");
+    assert!(crossed, "still waiting after 120 s");
+    let impatience = trafficmesh_sim::IMPATIENCE_TIME;
+    assert!(
+        w.time() >= impatience,
+        "it went after {:.0} s, before it was wholly impatient",
+        w.time()
+    );
+    let (p, h) = (vehicle(&w, priority), vehicle(&w, held));
+    assert_eq!(
+        w.network().lane(p.path[0]).name,
+        "W_in",
+        "the priority car waits"
+    );
+    assert!(h.speed < 0.1, "the walker still holds the exit");
+    run_until(&mut w, 20.0, |w| {
         assert_no_overlap(w);
         false
     });

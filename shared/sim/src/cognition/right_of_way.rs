@@ -597,7 +597,9 @@ impl Ctx<'_, '_> {
     /// the harder it lets a priority vehicle brake for it. It goes before one
     /// not yet in the junction that could still stop before the junction
     /// braking at our impatience (0 to 1, growing over [`IMPATIENCE_TIME`])
-    /// times the sudden deceleration. Once we move, that one holds in
+    /// times the sudden deceleration; wholly impatient, it also goes before
+    /// one standing at the junction's entrance (held there by something
+    /// else, maybe for good, like a full exit). Once we move, that one holds in
     /// FORCING_PRIORITY for us when it comes onto the junction, or waits
     /// before it while we are on it. Impatience lasts until we leave the
     /// junction, so that we do not stop again halfway.
@@ -607,6 +609,9 @@ impl Ctx<'_, '_> {
             return false;
         }
         let speed = f64::from(o.speed);
+        if impatience >= 1.0 && speed < CRAWL_SPEED {
+            return true;
+        }
         let braking = speed * speed / (2.0 * impatience * self.snap.config.sudden_deceleration);
         o.front.distance(o.entry) >= braking + CUT_IN_MARGIN
     }
