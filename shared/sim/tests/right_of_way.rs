@@ -16,17 +16,18 @@ fn crossing(yields: [&[&str]; 4]) -> MapFile {
 
 /// The crossing with extra top-level map fields (crosswalks).
 fn crossing_with(yields: [&[&str]; 4], extra: serde_json::Value) -> MapFile {
-    let mut m = serde_json::to_value(crossing(yields)).unwrap();
-    for (k, v) in extra.as_object().unwrap() {
-        m[k] = v.clone();
-    }
-    serde_json::from_value(m).unwrap()
+    map(crossing_lanes(yields, false), extra)
 }
 
 /// The crossing; with `lead_in`, each approach is 30 m long and comes out of
 /// a junction lane of its own (`X_pre`, 10 m), as where junctions follow
 /// closely.
 fn crossing_with_lead_in(yields: [&[&str]; 4], lead_in: bool) -> MapFile {
+    map(crossing_lanes(yields, lead_in), json!({}))
+}
+
+/// The crossing's lanes (see [`crossing_with_lead_in`]).
+fn crossing_lanes(yields: [&[&str]; 4], lead_in: bool) -> Vec<serde_json::Value> {
     // (name, unit direction of travel)
     let approaches = [
         ("S", [0.0, 1.0]),
@@ -64,7 +65,7 @@ fn crossing_with_lead_in(yields: [&[&str]; 4], lead_in: bool) -> MapFile {
         lanes.push(x);
         lanes.push(lane(&format!("{name}_out"), &[at(10.0), at(200.0)], &[]));
     }
-    map(lanes, json!({}))
+    lanes
 }
 
 fn assert_no_overlap(w: &World) {

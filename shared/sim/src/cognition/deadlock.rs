@@ -60,42 +60,19 @@ pub fn break_cycles(
     let n = vehicles.len();
     let mut walk_of = vec![NOBODY; n];
     let mut releases: Vec<(usize, usize)> = Vec::new();
-    let rule_held = (0..n).filter(|&i| waits[i].1);
-    for start in rule_held {
+    for start in (0..n).filter(|&i| waits[i].1) {
         if walk_of[start] != NOBODY {
             continue;
         }
-        let mut cur = start;
-        loop {
-            walk_of[cur] = start as u32;
-            let next = waits[cur].0;
-            if next == NOBODY {
-                break;
-            }
-            let next = next as usize;
-            if walk_of[next] == start as u32 {
-                // A new cycle through `next`: release its lowest id among
-                // the rule-held.
-                let mut lowest: Option<usize> = None;
-                let mut k = next;
-                loop {
-                    if waits[k].1 && lowest.is_none_or(|l| vehicles[k].id < vehicles[l].id) {
-                        lowest = Some(k);
-                    }
-                    k = waits[k].0 as usize;
-                    if k == next {
-                        break;
-                    }
-                }
-                if let Some(lowest) = lowest {
-                    releases.push((lowest, waits[lowest].0 as usize));
-                }
-                break;
-            }
-            if walk_of[next] != NOBODY {
-                break;
-            }
-            cur = next;
+        let Some(member) = walk_into_cycle(waits, &mut walk_of, start, |_| true) else {
+            continue;
+        };
+        // Release the cycle's lowest id among the rule-held.
+        let lowest = cycle_through(waits, member)
+            .filter(|&k| waits[k].1)
+            .min_by_key(|&k| vehicles[k].id);
+        if let Some(lowest) = lowest {
+            releases.push((lowest, waits[lowest].0 as usize));
         }
     }
     for &(released, holder) in &releases {
@@ -130,27 +107,48 @@ pub fn gridlocks(vehicles: &[Vehicle], waits: &[Wait], patience: f64) -> Vec<Vec
         if walk_of[start] != NOBODY || !patient(start) {
             continue;
         }
-        let mut cur = start;
-        loop {
-            walk_of[cur] = start as u32;
-            let next = waits[cur].0 as usize;
-            if walk_of[next] == start as u32 {
-                let mut cycle = vec![next];
-                let mut k = waits[next].0 as usize;
-                while k != next {
-                    cycle.push(k);
-                    k = waits[k].0 as usize;
-                }
-                if cycle.iter().all(|&k| !waits[k].1) {
-                    cycles.push(cycle);
-                }
-                break;
-            }
-            if walk_of[next] != NOBODY || !patient(next) {
-                break;
-            }
-            cur = next;
+        if let Some(member) = walk_into_cycle(waits, &mut walk_of, start, patient)
+            && cycle_through(waits, member).all(|k| !waits[k].1)
+        {
+            cycles.push(cycle_through(waits, member).collect());
         }
     }
     cycles
+}
+
+/// Follows the waits from `start` while `goes_on` admits the next vehicle,
+/// marking each one reached with `start` in `walk_of`. Returns a member of
+/// the cycle the walk closes, if it closes one: a walk that reaches a
+/// vehicle waiting for nobody, one an earlier walk marked (its cycle, if
+/// any, was found then) or one `goes_on` refuses closes none.
+fn walk_into_cycle(
+    waits: &[Wait],
+    walk_of: &mut [u32],
+    start: usize,
+    goes_on: impl Fn(usize) -> bool,
+) -> Option<usize> {
+    let mut cur = start;
+    loop {
+        walk_of[cur] = start as u32;
+        let next = waits[cur].0;
+        if next == NOBODY {
+            return None;
+        }
+        let next = next as usize;
+        if walk_of[next] == start as u32 {
+            return Some(next);
+        }
+        if walk_of[next] != NOBODY || !goes_on(next) {
+            return None;
+        }
+        cur = next;
+    }
+}
+
+/// The members of the cycle through `member`, in waiting order from it.
+fn cycle_through(waits: &[Wait], member: usize) -> impl Iterator<Item = usize> + '_ {
+    std::iter::successors(Some(member), move |&k| {
+        let next = waits[k].0 as usize;
+        (next != member).then_some(next)
+    })
 }

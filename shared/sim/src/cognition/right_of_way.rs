@@ -515,7 +515,7 @@ impl Ctx<'_, '_> {
                 o.on_intersection
                     // Let through, or impatient, we go: one holding on the
                     // junction may hold for us (a body in our way still stops us).
-                    && !((self.released || self.v.trip.held_by_rule > 0.0)
+                    && !((self.released || self.impatience() > 0.0)
                         && o.yield_phase == YieldPhase::ForcingPriority)
                     && !(o.yield_phase.is_yielding_due_to_rules() && self.parallelish(o))
                     && !self.same_side(o)
@@ -593,6 +593,11 @@ impl Ctx<'_, '_> {
         None
     }
 
+    /// 0 to 1: the time the junction's rules have held us, over [`IMPATIENCE_TIME`].
+    fn impatience(&self) -> f64 {
+        (self.v.trip.held_by_rule / IMPATIENCE_TIME).min(1.0)
+    }
+
     /// Impatience, as SUMO's: the longer a vehicle has been held by a rule,
     /// the harder it lets a priority vehicle brake for it. It goes before one
     /// not yet in the junction that could still stop before the junction
@@ -604,7 +609,7 @@ impl Ctx<'_, '_> {
     /// before it while we are on it. Impatience lasts until we leave the
     /// junction, so that we do not stop again halfway.
     fn impatient_enough_to_cut_in_before(&self, o: &RowInfo) -> bool {
-        let impatience = (self.v.trip.held_by_rule / IMPATIENCE_TIME).min(1.0);
+        let impatience = self.impatience();
         if o.on_intersection || impatience <= 0.0 {
             return false;
         }
