@@ -93,11 +93,16 @@ pub fn break_cycles(
     releases.len()
 }
 
-/// The cycles of bodies alone (no rule holds any member, so [`break_cycles`]
-/// cannot release one) whose every member has stood still for `patience`
-/// seconds: full lanes around a block, each queue's head waiting for room on
-/// the next, through as many junctions as the ring passes. Nobody in one can
-/// ever move again without help. Each cycle is given by its members' indices.
+/// The cycles whose every member has stood still for `patience` seconds.
+/// Mostly cycles of bodies alone, which no rule could release: full lanes
+/// around a block, each queue's head waiting for room on the next, through
+/// as many junctions as the ring passes. Also a cycle with a rule-held member
+/// that [`break_cycles`] released to no avail, because a body stands in its
+/// way as well (two vehicles, each with its body across the other's path,
+/// one of them yielding to the other): a release moves the released one at
+/// once, so a cycle that outlasts the patience is one it did not free.
+/// Nobody in one can ever move again without help. Each cycle is given by
+/// its members' indices.
 pub fn gridlocks(vehicles: &[Vehicle], waits: &[Wait], patience: f64) -> Vec<Vec<usize>> {
     let n = vehicles.len();
     let patient = |i: usize| waits[i].0 != NOBODY && vehicles[i].trip.wait >= patience;
@@ -107,9 +112,7 @@ pub fn gridlocks(vehicles: &[Vehicle], waits: &[Wait], patience: f64) -> Vec<Vec
         if walk_of[start] != NOBODY || !patient(start) {
             continue;
         }
-        if let Some(member) = walk_into_cycle(waits, &mut walk_of, start, patient)
-            && cycle_through(waits, member).all(|k| !waits[k].1)
-        {
+        if let Some(member) = walk_into_cycle(waits, &mut walk_of, start, patient) {
             cycles.push(cycle_through(waits, member).collect());
         }
     }
@@ -151,4 +154,51 @@ fn cycle_through(waits: &[Wait], member: usize) -> impl Iterator<Item = usize> +
         let next = waits[k].0 as usize;
         (next != member).then_some(next)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::{WorldConfig, test_grid_world};
+
+    /// Three vehicles of a grid world that have stood `waits` seconds.
+    fn standing_for(waits: [f64; 3]) -> Vec<Vehicle> {
+        let mut world = test_grid_world(3, WorldConfig::default());
+        while world.vehicles().len() < 3 {
+            world.step();
+        }
+        let mut vehicles = world.vehicles()[..3].to_vec();
+        for (v, wait) in vehicles.iter_mut().zip(waits) {
+            v.trip.wait = wait;
+        }
+        vehicles
+    }
+
+    #[test]
+    fn a_ring_of_bodies_that_stood_the_patience_is_a_gridlock() {
+        let vehicles = standing_for([20.0, 15.0, 12.0]);
+        let waits = [(1, false), (2, false), (0, false)];
+        assert_eq!(gridlocks(&vehicles, &waits, 10.0), vec![vec![0, 1, 2]]);
+    }
+
+    #[test]
+    fn a_cycle_with_a_rule_held_member_that_outlasts_the_patience_is_a_gridlock() {
+        let vehicles = standing_for([20.0, 15.0, 12.0]);
+        let waits = [(1, false), (2, true), (0, false)];
+        assert_eq!(gridlocks(&vehicles, &waits, 10.0), vec![vec![0, 1, 2]]);
+    }
+
+    #[test]
+    fn a_cycle_one_member_of_which_moved_within_the_patience_is_not() {
+        let vehicles = standing_for([20.0, 4.0, 12.0]);
+        let waits = [(1, false), (2, true), (0, false)];
+        assert!(gridlocks(&vehicles, &waits, 10.0).is_empty());
+    }
+
+    #[test]
+    fn a_chain_that_ends_at_a_vehicle_waiting_for_nobody_is_not() {
+        let vehicles = standing_for([20.0, 20.0, 20.0]);
+        let waits = [(1, false), (2, false), (NOBODY, false)];
+        assert!(gridlocks(&vehicles, &waits, 10.0).is_empty());
+    }
 }

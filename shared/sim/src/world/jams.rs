@@ -3,9 +3,10 @@
 //! lane that has stood still for the jam timeout is moved to the start of the
 //! next lane of its way where it fits, or, where none does, taken off the
 //! road; either way it is counted. A ring of queues that wait on each other
-//! (a gridlock, found in the waits) cannot clear by itself: one head in it is
-//! moved on as soon as the whole ring has stood for [`GRIDLOCK_PATIENCE`],
-//! without waiting out the timeout.
+//! (a gridlock, found in the waits: one that no release through a junction
+//! has freed) cannot clear by itself: one head in it is moved on as soon as
+//! the whole ring has stood for [`GRIDLOCK_PATIENCE`], without waiting out
+//! the timeout.
 
 use glam::DVec2;
 use trafficmesh_model::LightColor;
