@@ -515,8 +515,8 @@ impl Ctx<'_, '_> {
                 o.on_intersection
                     // Let through, or impatient, we go: one holding on the
                     // junction may hold for us (a body in our way still stops us).
-                    && !((self.released || self.impatience() > 0.0)
-                        && o.yield_phase == YieldPhase::ForcingPriority)
+                    && !(o.yield_phase == YieldPhase::ForcingPriority
+                        && (self.released || self.impatience() > 0.0))
                     && !(o.yield_phase.is_yielding_due_to_rules() && self.parallelish(o))
                     && !self.same_side(o)
                     && self.intersect_overall(o)
