@@ -177,9 +177,13 @@ const REAR_TANGENT: f64 = 0.5;
 /// since.
 ///
 /// A function of the lane and arc position alone, so a vehicle standing
-/// where it stood last tick (queued, or held at a light) keeps it.
+/// where it stood last tick (queued, or held at a light) keeps it, unless it
+/// is finishing a lane change in place ([`crate::pose::finishing_across`]).
 pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, travelled: f64) {
     if v.pose_at == (v.path[0], v.s) {
+        if crate::pose::finishing_across(v) {
+            crate::pose::draw(v, 0.0, false, v.pose.z);
+        }
         return;
     }
     let fresh = v.pose_at.1.is_nan();

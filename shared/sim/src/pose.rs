@@ -45,11 +45,36 @@ const STEP_SPARE: f64 = 0.04;
 /// ... plus this, metres (a body standing still stays put).
 const STEP_SLACK: f64 = 0.002;
 
+/// How far a body standing halfway across a lane change moves on across
+/// each tick, metres: under what the motion check counts as a jump at rest.
+const ACROSS_IN_PLACE: f64 = 0.02;
+
+/// Standing with its body still reaching into the lane it left and a
+/// further change pending (a route that crosses two lanes before the
+/// road's end, the first change made where the body stopped): it finishes
+/// the way across where it stands, a little each tick. Else it would keep
+/// that lane's shadow, and with it the next change, for ever: a change
+/// waits until the body is wholly across.
+pub fn finishing_across(v: &Vehicle) -> bool {
+    v.shadow.is_some() && v.lane_change.is_some() && v.speed == 0.0
+}
+
 /// The pose after the body moved `travelled` metres along its path (0 for a
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     let ends = (v.front_offset, v.length - v.front_offset);
-    ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
+    let in_place = if travelled <= 0.0 && finishing_across(v) {
+        let side = &mut v.sideways;
+        let step = side.offset.abs().min(ACROSS_IN_PLACE);
+        side.offset -= side.offset.signum() * step;
+        if side.offset == 0.0 {
+            side.angle = 0.0;
+        }
+        step
+    } else {
+        ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
+        0.0
+    };
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
         if front.max(rear) <= v.sideways.reach(v.width) || v.sideways.offset == 0.0 {
@@ -69,7 +94,7 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
         // imported lane does not start at the end of the one before, an
         // offset on a bend) is left over, and eased away as it drives on.
         let step = axle - was;
-        let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK;
+        let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK + in_place;
         if step.length() > most {
             let drawn = was + step * (most / step.length());
             side.residual += drawn - axle;

@@ -77,6 +77,20 @@ fn a_route_two_lanes_across_changes_one_lane_at_a_time_behind_the_vehicle_betwee
 }
 
 #[test]
+fn a_route_two_lanes_across_from_a_standstill_at_the_lanes_end_still_crosses_both() {
+    let mut w = world(&road_of_lanes(3), WorldConfig::default());
+    // Standing at the end of a0: the first change leaves the body drawn
+    // where it stands, still a body on a0; it moves on across in place, or
+    // the second change would wait for it for ever.
+    let routed = w
+        .place_vehicle_on_route("Taxi", &["a0", "j2", "x2"], 199.5, 0.0)
+        .unwrap();
+    let seen = run_out(&mut w, &[routed]);
+    assert_eq!(seen[0], ["a0", "a1", "a2", "j2", "x2"]);
+    assert_eq!(w.wait_stats().jam_resolutions, 0);
+}
+
+#[test]
 fn a_long_body_changing_lanes_keeps_its_ends_out_of_the_lane_on_the_far_side() {
     let mut w = world(&road_of_lanes(3), WorldConfig::default());
     // A 9.2 m truck pulling out slowly toward the right lane, turning as
