@@ -362,6 +362,7 @@ fn sim_json_reports_insertion_arrival_waiting_and_jams() {
         "insertion_backlog",
         "max_wait_s",
         "stuck_vehicles",
+        "stuck_vehicles_mean",
         "jam_resolutions",
     ] {
         assert!(v[field].is_number(), "{field} missing: {v}");

@@ -32,6 +32,8 @@ pub struct StepperStatus {
     pub max_wait_s: f64,
     /// Vehicles standing for 60 s or more, not at a red light (once a second).
     pub stuck_vehicles: usize,
+    /// The same, counted at the start of each simulated minute and averaged.
+    pub stuck_vehicles_mean: f64,
     /// Jammed vehicles moved on or taken off by the jam timeout or to
     /// break a gridlock.
     pub jam_resolutions: u64,

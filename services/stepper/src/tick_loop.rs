@@ -138,6 +138,7 @@ pub fn run(
             let waits = world.wait_stats_so_far();
             s.max_wait_s = waits.max_wait;
             s.stuck_vehicles = stuck;
+            s.stuck_vehicles_mean = waits.stuck_mean();
             s.jam_resolutions = waits.jam_resolutions;
             s.jam_removals = waits.jam_removals;
             s.gridlocks_broken = waits.gridlocks_broken;

@@ -50,6 +50,19 @@ fn blocked_for_good(jam_timeout: f64) -> (trafficmesh_sim::World, u64) {
     (w, id)
 }
 
+/// The stuck vehicles are sampled at the start of each simulated minute:
+/// one held for good from its first seconds is stuck at minutes 2, 3 and 4
+/// (standing 60 s or more), not at 0 and 1.
+#[test]
+fn the_mean_stuck_count_samples_each_simulated_minute() {
+    let (mut w, _) = blocked_for_good(0.0);
+    run_for(&mut w, 290.0);
+    let stats = w.wait_stats();
+    assert_eq!((stats.stuck_sampled, stats.stuck_samples), (3, 5));
+    assert!((stats.stuck_mean() - 0.6).abs() < 1e-12);
+    assert_eq!(w.stuck_vehicles(), 1, "stuck at the end");
+}
+
 #[test]
 fn a_vehicle_standing_for_the_jam_timeout_is_taken_off_the_road_and_counted() {
     let (mut w, id) = blocked_for_good(120.0);

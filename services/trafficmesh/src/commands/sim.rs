@@ -116,6 +116,8 @@ struct Summary {
     max_wait_s: f64,
     /// Vehicles standing for 60 s or more at the end, not at a red light.
     stuck_vehicles: usize,
+    /// The same, counted at the start of each simulated minute and averaged.
+    stuck_vehicles_mean: f64,
     /// Jammed vehicles moved on (or, with no room ahead, taken off the road)
     /// by `--jam-timeout` or to break a gridlock.
     jam_resolutions: u64,
@@ -314,6 +316,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         insertion_backlog: world.insertion_backlog(),
         max_wait_s: waits.max_wait,
         stuck_vehicles: world.stuck_vehicles(),
+        stuck_vehicles_mean: waits.stuck_mean(),
         jam_resolutions: waits.jam_resolutions,
         jam_removals: waits.jam_removals,
         gridlocks_broken: waits.gridlocks_broken,

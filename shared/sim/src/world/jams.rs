@@ -46,6 +46,23 @@ pub struct WaitStats {
     pub gridlocks_broken: u64,
     /// The longest standstill any vehicle has had so far, seconds.
     pub max_wait: f64,
+    /// The stuck vehicles counted at the start of each simulated minute so
+    /// far (see [`World::stuck_vehicles`]), summed, and how many minutes:
+    /// the mean over the run says more than the count at its end, one
+    /// moment of it.
+    pub stuck_sampled: u64,
+    pub stuck_samples: u64,
+}
+
+impl WaitStats {
+    /// Stuck vehicles on the road, averaged over the simulated minutes so far.
+    pub fn stuck_mean(&self) -> f64 {
+        if self.stuck_samples == 0 {
+            0.0
+        } else {
+            self.stuck_sampled as f64 / self.stuck_samples as f64
+        }
+    }
 }
 
 impl World {
@@ -61,14 +78,23 @@ impl World {
         let timeout = self.config.jam_timeout;
         let gridlocked = std::mem::take(&mut self.gridlocked);
         let mut jammed: Vec<(u64, usize)> = Vec::new();
+        // The first look of each simulated minute samples the stuck vehicles.
+        let minute = (self.time / 60.0).floor() as u64;
+        let sample = self.wait_stats.stuck_samples <= minute;
+        let mut stuck = 0;
         for (i, v) in self.vehicles.iter().enumerate() {
             self.wait_stats.max_wait = self.wait_stats.max_wait.max(v.trip.wait);
+            stuck += u64::from(sample && is_stuck(v));
             let timed_out = timeout > 0.0 && v.trip.wait >= timeout;
             let in_gridlock = gridlocked.contains(&v.id);
             if (timed_out || in_gridlock) && is_jammed_head(&self.net, &self.index, v) {
                 jammed.push((v.id, i));
                 self.wait_stats.gridlocks_broken += u64::from(in_gridlock && !timed_out);
             }
+        }
+        if sample {
+            self.wait_stats.stuck_sampled += stuck;
+            self.wait_stats.stuck_samples = minute + 1;
         }
         if jammed.is_empty() {
             return placed;
