@@ -64,13 +64,7 @@ pub fn finishing_across(v: &Vehicle) -> bool {
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     let ends = (v.front_offset, v.length - v.front_offset);
     let in_place = if travelled <= 0.0 && finishing_across(v) {
-        let side = &mut v.sideways;
-        let step = side.offset.abs().min(ACROSS_IN_PLACE);
-        side.offset -= side.offset.signum() * step;
-        if side.offset == 0.0 {
-            side.angle = 0.0;
-        }
-        step
+        across_in_place(&mut v.sideways)
     } else {
         ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
         0.0
@@ -177,6 +171,18 @@ fn ease_sideways(
         side.offset = 0.0;
         side.angle = 0.0;
     }
+}
+
+/// One tick of the way across where the body stands (see
+/// [`finishing_across`]): sideways, its angle kept until it is across.
+/// Returns how far the body moved.
+fn across_in_place(side: &mut Sideways) -> f64 {
+    let step = side.offset.abs().min(ACROSS_IN_PLACE);
+    side.offset -= side.offset.signum() * step;
+    if side.offset == 0.0 {
+        side.angle = 0.0;
+    }
+    step
 }
 
 /// Metres over which a drawn position eases `distance` metres back onto the

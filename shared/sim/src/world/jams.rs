@@ -25,6 +25,8 @@ use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
 const JAM_CHECK_INTERVAL: u64 = 50;
 /// Standing this long (away from a red light) makes a vehicle stuck.
 pub const STUCK_AFTER: f64 = 60.0;
+/// Simulated seconds between two counts of the stuck vehicles for their mean.
+const STUCK_SAMPLE_INTERVAL: f64 = 60.0;
 /// Seconds every member of a gridlock must have stood before one is moved
 /// on: well under [`STUCK_AFTER`], so that a ring is gone before its
 /// vehicles count as stuck, and long enough that queues which are only slow
@@ -79,7 +81,7 @@ impl World {
         let gridlocked = std::mem::take(&mut self.gridlocked);
         let mut jammed: Vec<(u64, usize)> = Vec::new();
         // The first look of each simulated minute samples the stuck vehicles.
-        let minute = (self.time / 60.0).floor() as u64;
+        let minute = (self.time / STUCK_SAMPLE_INTERVAL).floor() as u64;
         let sample = self.wait_stats.stuck_samples <= minute;
         let mut stuck = 0;
         for (i, v) in self.vehicles.iter().enumerate() {
