@@ -12,7 +12,11 @@
 //!   bend), it keeps a car's step and catches up over the next metres, and
 //!   those behind keep clear of where it is drawn (`Vehicle::drawn_lag`);
 //! - the heading turns toward the body's chord no faster than a car at that
-//!   speed can ([`TURN_RADIUS`]): drawn kinks and hairpins are driven round;
+//!   speed can ([`TURN_RADIUS`]): drawn kinks and hairpins are driven round,
+//!   the body turning about its centre on the chord, so that on a bend
+//!   sharper than a car can take front and rear share the swing off the path
+//!   (turned about its origin, the front of a car leaving a sharp right turn
+//!   swung 1.3 m into the oncoming lane);
 //! - a lane change moves the path at once, but the body eases across on an
 //!   S-curve that a car could drive at that speed ([`Sideways`]), and while it
 //!   still reaches into the lane it left it stays a body there for those
@@ -77,13 +81,22 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     }
     let normal = v.heading.perp();
     let on_path = v.axle_on_path();
-    let side = &mut v.sideways;
-    let mut axle = on_path + normal * side.offset + side.residual;
-    let target = wrap(v.body_yaw + side.angle);
-    let was = DVec2::new(v.pose.x, v.pose.y);
+    let target = wrap(v.body_yaw + v.sideways.angle);
     let yaw = if fresh {
         target
     } else {
+        let most = travelled.max(0.0) / TURN_RADIUS;
+        let turn = wrap(target - v.pose.yaw).clamp(-most, most);
+        wrap(v.pose.yaw + turn)
+    };
+    // A heading that lags its chord turns the body about its centre, not its
+    // origin: the front and the rear share the swing off the path.
+    let to_centre = v.front_offset - 0.5 * v.length;
+    let pivot = (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre;
+    let side = &mut v.sideways;
+    let mut axle = on_path + normal * side.offset + side.residual + pivot;
+    let was = DVec2::new(v.pose.x, v.pose.y);
+    if !fresh {
         // What the way's shape asks beyond a car's motion (a gap where an
         // imported lane does not start at the end of the one before, an
         // offset on a bend) is left over, and eased away as it drives on.
@@ -94,10 +107,7 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
             side.residual += drawn - axle;
             axle = drawn;
         }
-        let most = travelled.max(0.0) / TURN_RADIUS;
-        let turn = wrap(target - v.pose.yaw).clamp(-most, most);
-        wrap(v.pose.yaw + turn)
-    };
+    }
     v.pose = crate::vehicle::Pose {
         x: axle.x,
         y: axle.y,

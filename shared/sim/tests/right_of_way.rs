@@ -338,3 +338,66 @@ fn a_vehicle_crosses_before_a_priority_vehicle_that_stands_for_good() {
         false
     });
 }
+
+/// A left turn split in two junction lanes, as SUMO splits one that waits
+/// inside the junction: `t1` (no rules of its own) up to the internal
+/// junction point, then `t2`, which yields to the oncoming through lane `x`.
+fn split_left_turn() -> MapFile {
+    let mut t1 = lane("t1", &[[0.0, -10.0], [0.0, 0.0]], &["t2"]);
+    t1["intersection"] = json!(true);
+    let mut t2 = lane(
+        "t2",
+        &[[0.0, 0.0], [-3.0, 4.0], [-8.0, 6.0], [-12.0, 6.5]],
+        &["out"],
+    );
+    t2["intersection"] = json!(true);
+    t2["right_of_way"] = json!(["x"]);
+    let mut x = lane("x", &[[-3.5, 12.0], [-3.5, -12.0]], &["b_out"]);
+    x["intersection"] = json!(true);
+    map(
+        vec![
+            lane("a", &[[0.0, -100.0], [0.0, -10.0]], &["t1"]),
+            t1,
+            t2,
+            lane("out", &[[-12.0, 6.5], [-200.0, 6.5]], &[]),
+            lane("b_in", &[[-3.5, 100.0], [-3.5, 12.0]], &["x"]),
+            x,
+            lane("b_out", &[[-3.5, -12.0], [-3.5, -200.0]], &[]),
+        ],
+        json!({}),
+    )
+}
+
+/// The turn learns of the oncoming car on its first junction lane and waits
+/// at the internal junction point, its front short of the lane it waits for,
+/// instead of finding its rule only on the second lane and braking into it.
+#[test]
+fn a_split_turn_waits_at_the_internal_junction_point() {
+    let mut w = world(&split_left_turn(), WorldConfig::default());
+    let turner = w.place_vehicle("Taxi", "a", 60.0, 8.0).unwrap();
+    let oncoming = w.place_vehicle("Taxi", "b_in", 5.0, 13.0).unwrap();
+    let net = w.network();
+    let (t1, t2) = (net.lane_id("t1").unwrap(), net.lane_id("t2").unwrap());
+    let mut waited_on_t1 = false;
+    let turned = run_until(&mut w, 40.0, |w| {
+        assert_no_overlap(w);
+        let (t, o) = (vehicle(w, turner), vehicle(w, oncoming));
+        let oncoming_past = o.back.y < -2.0;
+        if t.yield_phase == YieldPhase::LanesRulesAtIntersection && t.dominating == Some(oncoming) {
+            waited_on_t1 |= t.path[0] == t1;
+        }
+        if !oncoming_past {
+            // Short of the crossing: the front stays left of the lane it
+            // waits for by more than a car's half width.
+            assert!(
+                t.path[0] != t2 || t.front.x > -3.5 + 1.8,
+                "front at {:.2} in the oncoming lane at t={:.2}",
+                t.front,
+                w.time()
+            );
+        }
+        w.network().lane(t.path[0]).name == "out"
+    });
+    assert!(waited_on_t1, "it did not wait on its first junction lane");
+    assert!(turned, "the turn never went");
+}

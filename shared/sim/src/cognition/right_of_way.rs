@@ -37,6 +37,8 @@ pub const IMPATIENCE_TIME: f64 = 60.0;
 /// Room left between the other's stopping point and the junction, metres.
 const CUT_IN_MARGIN: f64 = 3.0;
 const EGO_ANGLE_DEG: f64 = 30.0;
+/// Room a turn waiting inside the junction leaves before a crossing, metres.
+const ZONE_STOP_MARGIN: f64 = 0.5;
 
 /// What the predicates read about a vehicle, the own one and the others of its
 /// junction: taken once per tick into two cache lines, so that looking over the
@@ -224,14 +226,34 @@ struct Ctx<'a, 'b> {
     released: bool,
 }
 
+/// Where a turn waiting at an internal junction point stands clear of the
+/// lanes it waits for ([`Ctx::stop_before_zones`]).
+enum ZoneStop {
+    /// The junction lane it is on crosses none of them: at the point.
+    Clear,
+    /// The front stops here, before the crossing.
+    At(DVec2),
+    /// The front is in the crossing, or too near to stop before it.
+    Reached,
+}
+
 /// A predicate's hit: the vehicle yielded to and where to stop.
 type Hit = Option<(Option<VehicleId>, DVec2)>;
 
 pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = &snap.row[i];
-    let candidates = snap.junctions.of(info.junction);
     let yield_lane = current_yield_lane(snap, v, info);
+    // Before an internal junction point, the vehicles that matter are those
+    // of the lane it waits to enter (a first junction lane that crosses no
+    // other is a junction of its own).
+    let junction = match yield_lane {
+        Some(l) if info.on_intersection && v.path.get(1) == Some(&l) => {
+            snap.net.lane(l).junction.or(info.junction)
+        }
+        _ => info.junction,
+    };
+    let candidates = snap.junctions.of(junction);
     let ctx = Ctx {
         snap,
         i,
@@ -381,15 +403,27 @@ fn released_through(net: &LaneNetwork, v: &Vehicle, info: &RowInfo) -> bool {
 }
 
 /// The lane whose rules the vehicle obeys. The reference sets it as the vehicle
-/// approaches its junction; a junction path of several lanes (SUMO splits a
+/// approaches its junction. A junction path of several lanes (SUMO splits a
 /// turn that waits inside the junction at an internal junction) brings its own
-/// rules with its later lanes, which apply once the vehicle is on them.
+/// rules with its later lane: those apply from the junction lane before it
+/// (which has none of its own) on, so that the turn waits at the internal
+/// junction point, not finding its foes only once its front is past that
+/// point (braking hard there, it stood in the lane of the traffic it waited
+/// for).
 fn current_yield_lane(snap: &Snapshot, v: &Vehicle, info: &RowInfo) -> Option<LaneId> {
+    let net = snap.net;
+    let has_rules = |l: LaneId| !net.lane(l).right_of_way.is_empty();
     match info.first_int {
-        Some((0, lane))
-            if Some(lane) != v.yield_lane && !snap.net.lane(lane).right_of_way.is_empty() =>
-        {
-            Some(lane)
+        Some((0, lane)) => {
+            let ruled = if has_rules(lane) {
+                Some(lane)
+            } else {
+                v.path
+                    .get(1)
+                    .copied()
+                    .filter(|&l| net.lane(l).intersection && has_rules(l))
+            };
+            ruled.or(v.yield_lane)
         }
         _ => v.yield_lane,
     }
@@ -441,7 +475,30 @@ impl Ctx<'_, '_> {
 
     /// Do the two vehicles' paths through their first junction lanes still cross?
     fn intersect_overall(&self, o: &RowInfo) -> bool {
-        let (Some((ka, a)), Some((kb, b))) = (self.info.first_int, o.first_int) else {
+        self.crosses_from(self.info.first_int, o)
+    }
+
+    /// [`Self::intersect_overall`] from the junction lane whose rules the
+    /// vehicle obeys: the turn's later lane, before the internal junction point.
+    fn ruled_lane_crosses(&self, o: &RowInfo) -> bool {
+        let own = if self.before_internal_junction() {
+            self.yield_lane.map(|l| (1, l))
+        } else {
+            self.info.first_int
+        };
+        self.crosses_from(own, o)
+    }
+
+    /// On a junction lane, obeying the rules of the next one (see
+    /// [`current_yield_lane`]).
+    fn before_internal_junction(&self) -> bool {
+        self.info.on_intersection
+            && self.yield_lane.is_some()
+            && self.v.path.get(1).copied() == self.yield_lane
+    }
+
+    fn crosses_from(&self, own: Option<(usize, LaneId)>, o: &RowInfo) -> bool {
+        let (Some((ka, a)), Some((kb, b))) = (own, o.first_int) else {
             return false;
         };
         if a == b {
@@ -558,7 +615,8 @@ impl Ctx<'_, '_> {
         }
         let lane_id = self.yield_lane?;
         let lane = self.net().lane(lane_id);
-        let stop = if on_intersection {
+        let ahead = on_intersection && self.before_internal_junction();
+        let stop = if on_intersection && !ahead {
             lane.stop_center
                 .unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
         } else {
@@ -571,6 +629,20 @@ impl Ctx<'_, '_> {
         } else if self.v.signed_distance(stop) < OVERRUN_TO_START {
             return None;
         }
+        // Waiting at the internal junction point, the body stands clear of
+        // the lanes it waits for: before the first zone where the junction
+        // lane it is on crosses one of them, if there is one.
+        let stop = if ahead {
+            match self.stop_before_zones(&lane.right_of_way) {
+                ZoneStop::Clear => stop,
+                ZoneStop::At(point) => point,
+                // Too late to stand clear of them here: the rules apply on
+                // the later lane, once the vehicle is on it.
+                ZoneStop::Reached => return None,
+            }
+        } else {
+            stop
+        };
         for &priority_lane in &lane.right_of_way {
             let npc = self.others().find(|o| {
                 !o.waiting_at_red
@@ -578,7 +650,7 @@ impl Ctx<'_, '_> {
                         || (!o.yield_phase.is_yielding_due_to_rules()
                             && o.yield_phase != YieldPhase::IntersectionBlocked))
                     && self.dominates(o, priority_lane)
-                    && self.intersect_overall(o)
+                    && self.ruled_lane_crosses(o)
                     && !self.impatient_enough_to_cut_in_before(o)
             });
             if let Some(o) = npc {
@@ -591,6 +663,22 @@ impl Ctx<'_, '_> {
             }
         }
         None
+    }
+
+    /// Where the front stops before the first zone in which the junction
+    /// lane we are on crosses one of `others`.
+    fn stop_before_zones(&self, others: &[LaneId]) -> ZoneStop {
+        let lane = self.net().lane(self.v.path[0]);
+        // Sorted by start: the first found is the first along the lane.
+        let Some(zone) = lane.conflicts.iter().find(|c| others.contains(&c.other)) else {
+            return ZoneStop::Clear;
+        };
+        let at = zone.a0 - ZONE_STOP_MARGIN;
+        if at > self.v.s + OVERRUN_TO_START {
+            ZoneStop::At(lane.line.point_at(at.max(0.0)).0)
+        } else {
+            ZoneStop::Reached
+        }
     }
 
     /// 0 to 1: the time the junction's rules have held us, over [`IMPATIENCE_TIME`].
