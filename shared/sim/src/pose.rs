@@ -90,9 +90,14 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
         wrap(v.pose.yaw + turn)
     };
     // A heading that lags its chord turns the body about its centre, not its
-    // origin: the front and the rear share the swing off the path.
-    let to_centre = v.front_offset - 0.5 * v.length;
-    let pivot = (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre;
+    // origin: the front and the rear share the swing off the path. (Nearly
+    // every tick the heading is the chord's: no sines then.)
+    let pivot = if yaw == target {
+        DVec2::ZERO
+    } else {
+        let to_centre = v.front_offset - 0.5 * v.length;
+        (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre
+    };
     let side = &mut v.sideways;
     let mut axle = on_path + normal * side.offset + side.residual + pivot;
     let was = DVec2::new(v.pose.x, v.pose.y);

@@ -72,8 +72,9 @@ fn a_lane_that_starts_a_metre_from_the_end_of_the_one_before_is_driven_without_a
     );
 }
 
-#[test]
-fn a_right_angle_between_two_points_is_driven_round() {
+/// East along `a`, then `j` turns north at a right angle between two
+/// points, onto `b`: a taxi at 8 m/s, 40 m before the junction lane.
+fn taxi_before_a_right_angle() -> (World, u64) {
     let mut j = lane("j", &[[100.0, 0.0], [120.0, 0.0], [120.0, 20.0]], &["b"]);
     j["intersection"] = json!(true);
     let m = map(
@@ -88,6 +89,12 @@ fn a_right_angle_between_two_points_is_driven_round() {
     let id = w
         .place_vehicle_on_route("Taxi", &["a", "j", "b"], 60.0, 8.0)
         .unwrap();
+    (w, id)
+}
+
+#[test]
+fn a_right_angle_between_two_points_is_driven_round() {
+    let (mut w, id) = taxi_before_a_right_angle();
     drive_checked(&mut w, id, "b", 40.0);
     let v = vehicle(&w, id);
     assert!(
@@ -103,20 +110,7 @@ fn a_right_angle_between_two_points_is_driven_round() {
 /// front swung 1.8 m wide, into the lane beside; about its centre, 1.2 m).
 #[test]
 fn a_body_lagging_a_sharp_corner_swings_neither_end_far_off_the_path() {
-    let mut j = lane("j", &[[100.0, 0.0], [120.0, 0.0], [120.0, 20.0]], &["b"]);
-    j["intersection"] = json!(true);
-    let m = map(
-        vec![
-            lane("a", &[[0.0, 0.0], [100.0, 0.0]], &["j"]),
-            j,
-            lane("b", &[[120.0, 20.0], [120.0, 300.0]], &[]),
-        ],
-        json!({}),
-    );
-    let mut w = world(&m, WorldConfig::default());
-    let id = w
-        .place_vehicle_on_route("Taxi", &["a", "j", "b"], 60.0, 8.0)
-        .unwrap();
+    let (mut w, id) = taxi_before_a_right_angle();
     let net = w.network();
     let lines: Vec<_> = ["a", "j", "b"]
         .iter()

@@ -217,6 +217,9 @@ struct Ctx<'a, 'b> {
     info: &'a RowInfo,
     candidates: &'a [Member],
     yield_lane: Option<LaneId>,
+    /// On a junction lane, obeying the rules of the next one (see
+    /// [`current_yield_lane`]): before the internal junction point.
+    before_internal_junction: bool,
     /// Let through this junction by deadlock breaking: no rule makes it give
     /// way (lanes' rules, traffic on the right, holding for a vehicle that
     /// should yield to it) until it has left the junction, before it or on
@@ -244,13 +247,13 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = &snap.row[i];
     let yield_lane = current_yield_lane(snap, v, info);
+    let before_internal_junction =
+        info.on_intersection && yield_lane.is_some() && v.path.get(1).copied() == yield_lane;
     // Before an internal junction point, the vehicles that matter are those
     // of the lane it waits to enter (a first junction lane that crosses no
     // other is a junction of its own).
     let junction = match yield_lane {
-        Some(l) if info.on_intersection && v.path.get(1) == Some(&l) => {
-            snap.net.lane(l).junction.or(info.junction)
-        }
+        Some(l) if before_internal_junction => snap.net.lane(l).junction.or(info.junction),
         _ => info.junction,
     };
     let candidates = snap.junctions.of(junction);
@@ -261,6 +264,7 @@ pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
         info,
         candidates,
         yield_lane,
+        before_internal_junction,
         released: released_through(snap.net, v, info),
     };
     let keep = |phase, hit: Hit| match hit {
@@ -481,20 +485,12 @@ impl Ctx<'_, '_> {
     /// [`Self::intersect_overall`] from the junction lane whose rules the
     /// vehicle obeys: the turn's later lane, before the internal junction point.
     fn ruled_lane_crosses(&self, o: &RowInfo) -> bool {
-        let own = if self.before_internal_junction() {
+        let own = if self.before_internal_junction {
             self.yield_lane.map(|l| (1, l))
         } else {
             self.info.first_int
         };
         self.crosses_from(own, o)
-    }
-
-    /// On a junction lane, obeying the rules of the next one (see
-    /// [`current_yield_lane`]).
-    fn before_internal_junction(&self) -> bool {
-        self.info.on_intersection
-            && self.yield_lane.is_some()
-            && self.v.path.get(1).copied() == self.yield_lane
     }
 
     fn crosses_from(&self, own: Option<(usize, LaneId)>, o: &RowInfo) -> bool {
@@ -615,7 +611,7 @@ impl Ctx<'_, '_> {
         }
         let lane_id = self.yield_lane?;
         let lane = self.net().lane(lane_id);
-        let ahead = on_intersection && self.before_internal_junction();
+        let ahead = self.before_internal_junction;
         let stop = if on_intersection && !ahead {
             lane.stop_center
                 .unwrap_or_else(|| lane.line.point_at((lane.length() * 0.5).min(2.0)).0)
