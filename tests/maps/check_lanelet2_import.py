@@ -2,8 +2,11 @@
 here with Python's ElementTree (not trafficmesh's reader).
 
 Usage: check_lanelet2_import.py MAP_OSM IMPORTED_MAP_JSON. Prints OK and exits 0
-when every car lanelet is a lane named ll_<id>; every lanelet whose bounds end
-on the nodes where another lanelet's bounds start has exactly those successors;
+when every car lanelet is a lane named ll_<id>, and a two-way one (one_way=no)
+also ll_<id>_r for the other way; bounds are oriented as Lanelet2 does (the
+left bound so that the right one lies on its right, then the right bound so
+that the left one lies on its left); every lane whose bounds end on the nodes
+where another lane's bounds start has exactly those successors;
 every traffic-light element referred to by a car lanelet is a light group on
 those lanes; and every crosswalk lanelet is a crosswalk area.
 """
@@ -37,10 +40,30 @@ def role(members, name):
     return [ref for t, r, ref in members if r == name]
 
 
-def close(a, b):
+def xy(n):
     # Metres on a local plane: a degree of longitude shrinks with cos(latitude).
-    k = math.cos(math.radians(a[0]))
-    return 111_195.0 * math.hypot(a[0] - b[0], k * (a[1] - b[1]))
+    lat, lon = nodes[n]
+    return (111_195.0 * lon * math.cos(math.radians(lat)), 111_195.0 * lat)
+
+
+def middle(line):
+    if len(line) > 2:
+        return xy(line[len(line) // 2])
+    (ax, ay), (bx, by) = xy(line[0]), xy(line[-1])
+    return ((ax + bx) / 2, (ay + by) / 2)
+
+
+def side(line, p):
+    """Positive when p lies left of the polyline (by its nearest segment)."""
+    best = None
+    for a, b in zip(line, line[1:]):
+        (ax, ay), (bx, by) = xy(a), xy(b)
+        dx, dy, qx, qy = bx - ax, by - ay, p[0] - ax, p[1] - ay
+        t = max(0.0, min(1.0, (qx * dx + qy * dy) / max(dx * dx + dy * dy, 1e-12)))
+        d = math.hypot(qx - t * dx, qy - t * dy)
+        if best is None or d < best[0]:
+            best = (d, dx * qy - dy * qx)
+    return best[1]
 
 
 lanelets = {}
@@ -54,37 +77,40 @@ for rid, (tags, members) in rels.items():
     if sub not in CARS:
         continue
     left, right = ways[role(members, "left")[0]], ways[role(members, "right")[0]]
-    # The right bound may be drawn against the driving direction.
-    a = close(nodes[left[0]], nodes[right[0]]) + close(nodes[left[-1]], nodes[right[-1]])
-    b = close(nodes[left[0]], nodes[right[-1]]) + close(nodes[left[-1]], nodes[right[0]])
-    if a > b:
+    if side(left, middle(right)) >= 0:
+        left = left[::-1]
+    if side(right, middle(left)) <= 0:
         right = right[::-1]
-    lanelets[rid] = ((left[0], right[0]), (left[-1], right[-1]), members)
+    lanelets[f"ll_{rid}"] = ((left[0], right[0]), (left[-1], right[-1]), members)
+    if tags.get("one_way") == "no":
+        lanelets[f"ll_{rid}_r"] = ((right[-1], left[-1]), (right[0], left[0]), members)
 
 ours = json.load(open(MAP))
 lanes = {l["name"]: l for l in ours["lanes"]}
-if set(lanes) != {f"ll_{i}" for i in lanelets}:
-    fail(f"lanes {len(lanes)} vs car lanelets {len(lanelets)}: "
-         f"{sorted(set(lanes) ^ {f'll_{i}' for i in lanelets})[:5]}")
+if set(lanes) != set(lanelets):
+    fail(f"lanes {len(lanes)} vs car lanelet ways {len(lanelets)}: "
+         f"{sorted(set(lanes) ^ set(lanelets))[:5]}")
 
 checked = 0
-for rid, (start, end, _) in lanelets.items():
-    expected = {f"ll_{o}" for o, (s, _, _) in lanelets.items() if s == end and o != rid}
+for name, (start, end, _) in lanelets.items():
+    expected = {o for o, (s, _, _) in lanelets.items() if s == end and o != name}
     if not expected:
         continue
-    got = set(lanes[f"ll_{rid}"]["next"])
+    got = set(lanes[name]["next"])
     if got != expected:
-        fail(f"lanelet {rid}: successors {sorted(got)}, expected {sorted(expected)}")
+        fail(f"lane {name}: successors {sorted(got)}, expected {sorted(expected)}")
     checked += 1
 
 groups = {g["name"] for g in ours["light_groups"]}
-for rid, (_, _, members) in lanelets.items():
+for name, (_, _, members) in lanelets.items():
+    two_way = name.endswith("_r") or f"{name}_r" in lanelets
     for reg in role(members, "regulatory_element"):
         if rels.get(reg, ({}, []))[0].get("subtype") == "traffic_light":
             if f"tl_{reg}" not in groups:
-                fail(f"traffic light {reg} of lanelet {rid} is not a light group")
-            if lanes[f"ll_{rid}"].get("traffic_light") is None:
-                fail(f"lanelet {rid} lost its traffic light")
+                fail(f"traffic light {reg} of lane {name} is not a light group")
+            # On a two-way lanelet the light is for one of its ways.
+            if not two_way and lanes[name].get("traffic_light") is None:
+                fail(f"lane {name} lost its traffic light")
 if not groups:
     fail("no light groups")
 if {c["name"] for c in ours["crosswalks"]} != {f"cw_{c}" for c in crosswalks}:

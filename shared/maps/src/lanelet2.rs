@@ -63,12 +63,21 @@ impl Relation<'_> {
 }
 
 /// One vehicle lanelet on its way to becoming a lane.
+/// One direction of a lanelet: a lane.
 struct Lanelet {
     id: i64,
+    /// The lane's name: `ll_<id>`, and `ll_<id>_r` for the way against the
+    /// bounds' direction of a two-way lanelet.
+    name: String,
     centre: Vec<Xy>,
     width: f64,
+    /// The bounds' first and last nodes (left, right) as driven: successors
+    /// share them.
     start: (i64, i64),
     end: (i64, i64),
+    /// The middle of the lanelet's start and end across its full width,
+    /// where lanelets drawn with separate nodes meet.
+    joins: (Xy, Xy),
     speed: f64,
     turn: Option<TurnDirection>,
     regulatory: Vec<i64>,
@@ -176,12 +185,16 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         .filter(|r| r.tag("type") == Some("lanelet"))
     {
         let subtype = r.tag("subtype").unwrap_or("road");
-        let (left_ids, left) = geometry(r, "left")?;
+        let (mut left_ids, mut left) = geometry(r, "left")?;
         let (mut right_ids, mut right) = geometry(r, "right")?;
-        // Bounds run in the driving direction; a right bound drawn the other way is turned.
-        if dist(left[0], right[0]) + dist(left[left.len() - 1], right[right.len() - 1])
-            > dist(left[0], right[right.len() - 1]) + dist(left[left.len() - 1], right[0])
-        {
+        // Bounds are drawn either way; as Lanelet2 does, the left bound is
+        // turned to have the right one on its right, then the right bound to
+        // have the left one on its left. Both then run in the driving direction.
+        if side_of(&left, middle(&right)) >= 0.0 {
+            left.reverse();
+            left_ids.reverse();
+        }
+        if side_of(&right, middle(&left)) <= 0.0 {
             right.reverse();
             right_ids.reverse();
         }
@@ -198,7 +211,6 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
                 continue;
             }
         }
-        let (centre, width) = centreline(&left, &right);
         let speed = match r.tag("speed_limit") {
             Some(s) => num(
                 &doc,
@@ -213,16 +225,58 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             "right" => TurnDirection::Right,
             _ => TurnDirection::Straight,
         });
-        lanelets.push(Lanelet {
-            id: r.id,
-            centre,
-            width,
-            start: (left_ids[0], right_ids[0]),
-            end: (*left_ids.last().unwrap(), *right_ids.last().unwrap()),
-            speed,
-            turn,
-            regulatory: r.relations("regulatory_element").collect(),
-        });
+        let regulatory: Vec<i64> = r.relations("regulatory_element").collect();
+        let (centre, width) = centreline(&left, &right);
+        let joins = (centre[0], centre[centre.len() - 1]);
+        let (l0, l1) = first_last(&left_ids);
+        let (r0, r1) = first_last(&right_ids);
+        if r.tag("one_way") == Some("no") {
+            // Both ways on one lanelet (Lanelet2's inverted lanelet for the
+            // other): each keeps to its right half.
+            let (ahead, _) = centreline(&centre, &right);
+            let mut back_centre = centre.clone();
+            back_centre.reverse();
+            let mut back_right = left.clone();
+            back_right.reverse();
+            let (back, _) = centreline(&back_centre, &back_right);
+            lanelets.push(Lanelet {
+                id: r.id,
+                name: format!("ll_{}", r.id),
+                centre: ahead,
+                width: width * 0.5,
+                start: (l0, r0),
+                end: (l1, r1),
+                joins,
+                speed,
+                turn,
+                regulatory: regulatory.clone(),
+            });
+            lanelets.push(Lanelet {
+                id: r.id,
+                name: format!("ll_{}_r", r.id),
+                centre: back,
+                width: width * 0.5,
+                start: (r1, l1),
+                end: (r0, l0),
+                joins: (joins.1, joins.0),
+                speed,
+                turn,
+                regulatory,
+            });
+        } else {
+            lanelets.push(Lanelet {
+                id: r.id,
+                name: format!("ll_{}", r.id),
+                centre,
+                width,
+                start: (l0, r0),
+                end: (l1, r1),
+                joins,
+                speed,
+                turn,
+                regulatory,
+            });
+        }
     }
     for (subtype, n) in &skipped {
         warnings.push(format!(
@@ -230,12 +284,11 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         ));
     }
 
-    let lane_name = |id: i64| format!("ll_{id}");
-    let index: HashMap<i64, usize> = lanelets
-        .iter()
-        .enumerate()
-        .map(|(i, l)| (l.id, i))
-        .collect();
+    // A lanelet's lanes: one, or two for a two-way lanelet.
+    let mut index: HashMap<i64, Vec<usize>> = HashMap::new();
+    for (i, l) in lanelets.iter().enumerate() {
+        index.entry(l.id).or_default().push(i);
+    }
     let successors = successors(&lanelets);
     let mut predecessors = vec![Vec::new(); lanelets.len()];
     for (i, next) in successors.iter().enumerate() {
@@ -243,6 +296,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             predecessors[n].push(i);
         }
     }
+    keep_to_the_halves(&mut lanelets, &index, &successors, &predecessors);
     let mut lanes: Vec<LaneDef> = lanelets
         .iter()
         .enumerate()
@@ -253,7 +307,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             let merges = successors[i].iter().any(|&n| predecessors[n].len() > 1);
             let intersection = l.turn.is_some() || diverges || merges;
             LaneDef {
-                name: lane_name(l.id),
+                name: l.name.clone(),
                 waypoints: l.centre.iter().map(|p| Point(*p)).collect(),
                 width: l.width,
                 // A turn is driven no faster than its bend allows, as
@@ -265,7 +319,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
                 },
                 next: successors[i]
                     .iter()
-                    .map(|&n| lane_name(lanelets[n].id))
+                    .map(|&n| lanelets[n].name.clone())
                     .collect(),
                 prev: Vec::new(),
                 intersection,
@@ -291,15 +345,6 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             };
             match r.tag("subtype") {
                 Some("traffic_light") => {
-                    let lane = &mut lanes[i];
-                    if lane.traffic_light.is_some() {
-                        warnings.push(format!(
-                            "lanelet {}: a second traffic light ({reg}) ignored",
-                            l.id
-                        ));
-                        continue;
-                    }
-                    lane.traffic_light = Some(format!("tl_{reg}"));
                     let stop = r
                         .ways("ref_line")
                         .next()
@@ -310,6 +355,25 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
                                 Point(*points.get(w.nodes.last()?)?),
                             ])
                         });
+                    // On a two-way lanelet, the light is for the way that
+                    // ends at its stop line.
+                    if index[&l.id].len() > 1
+                        && let Some([a, b]) = stop
+                    {
+                        let mid = [0, 1, 2].map(|k| (a.0[k] + b.0[k]) / 2.0);
+                        if dist(mid, l.centre[0]) < dist(mid, l.centre[l.centre.len() - 1]) {
+                            continue;
+                        }
+                    }
+                    let lane = &mut lanes[i];
+                    if lane.traffic_light.is_some() {
+                        warnings.push(format!(
+                            "lanelet {}: a second traffic light ({reg}) ignored",
+                            l.id
+                        ));
+                        continue;
+                    }
+                    lane.traffic_light = Some(format!("tl_{reg}"));
                     lane.stop_line = Some(stop.unwrap_or_else(|| across_end(&l.centre, l.width)));
                     light_lanes.entry(*reg).or_default().push(i);
                 }
@@ -327,13 +391,18 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     {
         let priority: Vec<String> = r
             .relations("right_of_way")
-            .filter(|id| index.contains_key(id))
-            .map(lane_name)
+            .filter_map(|id| index.get(&id))
+            .flatten()
+            .map(|&i| lanelets[i].name.clone())
             .collect();
-        for y in r.relations("yield").filter_map(|id| index.get(&id)) {
+        for &y in r
+            .relations("yield")
+            .filter_map(|id| index.get(&id))
+            .flatten()
+        {
             for p in &priority {
-                if !lanes[*y].right_of_way.contains(p) {
-                    lanes[*y].right_of_way.push(p.clone());
+                if !lanes[y].right_of_way.contains(p) {
+                    lanes[y].right_of_way.push(p.clone());
                 }
             }
         }
@@ -439,6 +508,124 @@ fn node_positions(
         .collect())
 }
 
+/// Metres over which a one-way lanelet joining a two-way one eases from the
+/// middle of the road to the half its way keeps to (at most half its length).
+const HALF_TAPER: f64 = 10.0;
+
+/// A one-way lanelet that continues or leads into a two-way one shares that
+/// lanelet's full-width edge, so its centreline ends in the road's middle:
+/// it is eased onto the half of its way there, as drivers keep right.
+fn keep_to_the_halves(
+    lanelets: &mut [Lanelet],
+    index: &HashMap<i64, Vec<usize>>,
+    successors: &[Vec<usize>],
+    predecessors: &[Vec<usize>],
+) {
+    let two_way: Vec<bool> = lanelets.iter().map(|l| index[&l.id].len() > 1).collect();
+    let two_way = |k: usize| two_way[k];
+    for i in 0..lanelets.len() {
+        if two_way(i) {
+            continue;
+        }
+        let into = predecessors[i].iter().find(|&&p| two_way(p));
+        let onto = successors[i].iter().find(|&&n| two_way(n));
+        let start = into.map(|&p| {
+            let c = &lanelets[p].centre;
+            c[c.len() - 1]
+        });
+        let end = onto.map(|&n| lanelets[n].centre[0]);
+        if start.is_none() && end.is_none() {
+            continue;
+        }
+        let mut eased = densify(&lanelets[i].centre, 1.0);
+        let mut along = vec![0.0];
+        for w in eased.windows(2) {
+            along.push(along[along.len() - 1] + dist(w[0], w[1]));
+        }
+        let length = along[along.len() - 1];
+        let first = eased[0];
+        let last = eased[eased.len() - 1];
+        let start_shift = start.map_or([0.0; 2], |to| [to[0] - first[0], to[1] - first[1]]);
+        let end_shift = end.map_or([0.0; 2], |to| [to[0] - last[0], to[1] - last[1]]);
+        // The share of each end's shift at arc length s: eased in and out
+        // (smoothstep), so the lane leaves the joint in its own heading.
+        let taper = HALF_TAPER.min(length).max(1e-6);
+        let weights = |s: f64| match (start.is_some(), end.is_some()) {
+            (true, true) => {
+                let u = smoothstep(s / length.max(1e-6));
+                (1.0 - u, u)
+            }
+            (true, false) => (smoothstep(1.0 - s / taper), 0.0),
+            _ => (0.0, smoothstep(1.0 - (length - s) / taper)),
+        };
+        for (p, &s) in eased.iter_mut().zip(&along) {
+            let (ws, we) = weights(s);
+            p[0] += start_shift[0] * ws + end_shift[0] * we;
+            p[1] += start_shift[1] * ws + end_shift[1] * we;
+        }
+        lanelets[i].centre = eased;
+    }
+}
+
+/// 0 below 0, 1 above 1, and a smooth S between.
+fn smoothstep(x: f64) -> f64 {
+    let x = x.clamp(0.0, 1.0);
+    x * x * (3.0 - 2.0 * x)
+}
+
+/// The polyline with points added so that none lies further than `spacing`
+/// from the next.
+fn densify(line: &[Xy], spacing: f64) -> Vec<Xy> {
+    let mut out = vec![line[0]];
+    for w in line.windows(2) {
+        let n = (dist(w[0], w[1]) / spacing).ceil().max(1.0) as usize;
+        for k in 1..=n {
+            let t = k as f64 / n as f64;
+            out.push([0, 1, 2].map(|c| w[0][c] + (w[1][c] - w[0][c]) * t));
+        }
+    }
+    out
+}
+
+fn first_last(ids: &[i64]) -> (i64, i64) {
+    (ids[0], ids[ids.len() - 1])
+}
+
+/// The point that stands for a bound's middle: its middle node, or the
+/// midpoint of a bound of two nodes.
+fn middle(line: &[Xy]) -> Xy {
+    if line.len() > 2 {
+        line[line.len() / 2]
+    } else {
+        let (a, b) = (line[0], line[line.len() - 1]);
+        [0, 1, 2].map(|k| (a[k] + b[k]) * 0.5)
+    }
+}
+
+/// Which side of a polyline p lies on, by its nearest segment: positive to
+/// the left, negative to the right.
+fn side_of(line: &[Xy], p: Xy) -> f64 {
+    let mut best = (f64::INFINITY, 0.0);
+    for w in line.windows(2) {
+        let (d, q) = (
+            [w[1][0] - w[0][0], w[1][1] - w[0][1]],
+            [p[0] - w[0][0], p[1] - w[0][1]],
+        );
+        let len2 = d[0] * d[0] + d[1] * d[1];
+        let t = if len2 > 0.0 {
+            ((q[0] * d[0] + q[1] * d[1]) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let off = [q[0] - t * d[0], q[1] - t * d[1]];
+        let distance = off[0] * off[0] + off[1] * off[1];
+        if distance < best.0 {
+            best = (distance, d[0] * q[1] - d[1] * q[0]);
+        }
+    }
+    best.1
+}
+
 fn dist(a: Xy, b: Xy) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
@@ -525,11 +712,13 @@ fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
         .map(|(i, l)| {
             let mut next: Vec<usize> = by_start.get(&l.end).cloned().unwrap_or_default();
             if next.is_empty() {
-                let end = l.centre[l.centre.len() - 1];
                 next = lanelets
                     .iter()
                     .enumerate()
-                    .filter(|(j, m)| *j != i && dist(m.centre[0], end) < 0.5)
+                    .filter(|(j, m)| {
+                        // Not the same lanelet driven back.
+                        m.id != l.id && *j != i && dist(m.joins.0, l.joins.1) < 0.5
+                    })
                     .map(|(j, _)| j)
                     .collect();
             }
@@ -660,6 +849,103 @@ mod tests {
         assert!((heading_at(&approach, approach[2]) - south).abs() < 1e-9);
         // At the turn's end it leaves eastwards.
         assert!(heading_at(&turn, turn[16]).abs() < 0.1);
+    }
+
+    /// An OSM file with local metric nodes (id, x, y), ways (id, nodes) and
+    /// lanelets (id, left way, right way, one_way).
+    fn osm(
+        nodes: &[(i64, f64, f64)],
+        ways: &[(i64, &[i64])],
+        lanelets: &[(i64, i64, i64, &str)],
+    ) -> String {
+        let mut x = String::from("<?xml version='1.0'?><osm version='0.6'>");
+        for (id, lx, ly) in nodes {
+            x += &format!(
+                "<node id='{id}' lat='0' lon='0'><tag k='local_x' v='{lx}'/><tag k='local_y' v='{ly}'/></node>"
+            );
+        }
+        for (id, nds) in ways {
+            x += &format!("<way id='{id}'>");
+            for n in *nds {
+                x += &format!("<nd ref='{n}'/>");
+            }
+            x += "</way>";
+        }
+        for (id, left, right, one_way) in lanelets {
+            x += &format!(
+                "<relation id='{id}'><member type='way' ref='{left}' role='left'/>\
+                 <member type='way' ref='{right}' role='right'/><tag k='type' v='lanelet'/>\
+                 <tag k='subtype' v='road'/><tag k='one_way' v='{one_way}'/></relation>"
+            );
+        }
+        x + "</osm>"
+    }
+
+    fn lane<'a>(imported: &'a Imported, name: &str) -> &'a LaneDef {
+        imported.map.lanes.iter().find(|l| l.name == name).unwrap()
+    }
+
+    #[test]
+    fn bounds_drawn_against_the_lanelet_are_turned_as_lanelet2_turns_them() {
+        // Two lanelets eastwards along y = 0 (left bound at y = 1.5, right at
+        // y = -1.5); the second has both bounds drawn westwards.
+        let nodes = [
+            (1, 0.0, 1.5),
+            (2, 10.0, 1.5),
+            (3, 0.0, -1.5),
+            (4, 10.0, -1.5),
+            (5, 20.0, 1.5),
+            (6, 20.0, -1.5),
+        ];
+        let ways: [(i64, &[i64]); 4] = [(10, &[1, 2]), (11, &[3, 4]), (12, &[5, 2]), (13, &[6, 4])];
+        let text = osm(&nodes, &ways, &[(100, 10, 11, "yes"), (101, 12, 13, "yes")]);
+        let imported = import("t", &text).unwrap();
+        let second = lane(&imported, "ll_101");
+        assert!(
+            second.waypoints[0].0[0] < second.waypoints[1].0[0],
+            "runs east"
+        );
+        assert_eq!(lane(&imported, "ll_100").next, vec!["ll_101".to_string()]);
+    }
+
+    #[test]
+    fn a_two_way_lanelet_is_a_lane_each_way_on_its_own_half() {
+        // A 6 m wide two-way lanelet eastwards, then a one-way one carrying on east.
+        let nodes = [
+            (1, 0.0, 3.0),
+            (2, 40.0, 3.0),
+            (3, 0.0, -3.0),
+            (4, 40.0, -3.0),
+            (5, 80.0, 3.0),
+            (6, 80.0, -3.0),
+        ];
+        let ways: [(i64, &[i64]); 4] = [(10, &[1, 2]), (11, &[3, 4]), (12, &[2, 5]), (13, &[4, 6])];
+        let text = osm(&nodes, &ways, &[(100, 10, 11, "no"), (101, 12, 13, "yes")]);
+        let imported = import("t", &text).unwrap();
+        let (east, west) = (lane(&imported, "ll_100"), lane(&imported, "ll_100_r"));
+        assert!((east.width - 3.0).abs() < 1e-9 && (west.width - 3.0).abs() < 1e-9);
+        // Keeping right: eastwards south of the middle, westwards north of it.
+        assert!(east.waypoints.iter().all(|p| (p.0[1] + 1.5).abs() < 1e-9));
+        assert!(west.waypoints.iter().all(|p| (p.0[1] - 1.5).abs() < 1e-9));
+        assert!(west.waypoints[0].0[0] > west.waypoints[1].0[0], "runs west");
+        // Only the eastward way leads on into the one-way lanelet, which eases
+        // from that half onto its own middle.
+        assert_eq!(east.next, vec!["ll_101".to_string()]);
+        assert!(west.next.is_empty());
+        let on = lane(&imported, "ll_101");
+        assert!(
+            (on.waypoints[0].0[1] + 1.5).abs() < 1e-9,
+            "starts on the half"
+        );
+        assert!(
+            on.waypoints.last().unwrap().0[1].abs() < 1e-9,
+            "ends in its middle"
+        );
+        let steps = on
+            .waypoints
+            .windows(2)
+            .map(|w| (w[1].0[1] - w[0].0[1]).abs() / (w[1].0[0] - w[0].0[0]));
+        assert!(steps.fold(0.0, f64::max) < 0.3, "eased, not kinked");
     }
 
     #[test]

@@ -36,17 +36,25 @@ pub struct BlockedZone {
     /// The lane the body is on.
     pub source: LaneId,
     pub vehicle: u32,
-    /// A road conflict (see [`crate::conflicts::Conflict::road`]), with its
-    /// room and the body's width: a vehicle narrow enough passes the body.
+    /// A road conflict (see [`crate::conflicts::Conflict::road`]), and the
+    /// body's width and length: a vehicle narrow enough passes the body.
     pub road: bool,
-    pub room: f64,
     pub width: f64,
+    pub length: f64,
+    /// The conflict's room and sweep (see [`crate::conflicts::Conflict`]).
+    pub room: f64,
+    pub sweep: f64,
+    /// What the body as drawn lies off its centreline.
+    pub off_centreline: f64,
 }
 
 impl BlockedZone {
-    /// Does a vehicle `width` wide pass the body beside it?
-    pub fn passable(&self, width: f64) -> bool {
-        self.road && (width + self.width) * 0.5 < self.room
+    /// Does a vehicle `width` wide and `length` long, needing `off_centreline`
+    /// more on each side, pass the body beside it?
+    pub fn passable(&self, width: f64, length: f64, off_centreline: f64) -> bool {
+        self.road
+            && (width + self.width) * 0.5 + off_centreline + self.off_centreline
+                < crate::conflicts::room_between(self.room, self.sweep, length.max(self.length))
     }
 }
 
@@ -134,14 +142,15 @@ impl ChunkItems {
                             source: lane,
                             vehicle: occ.vehicle,
                             road: c.road,
-                            room: if c.road {
-                                c.room
-                                    - *off_centreline
-                                        .get_or_insert_with(|| v.drawn_off_centreline(net))
-                            } else {
-                                c.room
-                            },
                             width: v.width,
+                            length: v.length,
+                            room: c.room,
+                            sweep: c.sweep,
+                            off_centreline: if c.road {
+                                *off_centreline.get_or_insert_with(|| v.drawn_off_centreline(net))
+                            } else {
+                                0.0
+                            },
                         },
                     ));
                 }

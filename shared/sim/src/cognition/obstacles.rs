@@ -64,7 +64,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         i,
         v,
         range: needed_lookahead(v.speed, snap.config),
-        room_needed: std::cell::OnceCell::new(),
+        off_centreline: std::cell::OnceCell::new(),
     };
     let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
@@ -142,10 +142,10 @@ struct Search<'a, 'b> {
     i: usize,
     v: &'a Vehicle,
     range: f64,
-    /// The room we need to pass a body beside our way: our width, plus on
-    /// each side what our body as drawn lies off our centreline. Read only
-    /// for road conflicts, once.
-    room_needed: std::cell::OnceCell<f64>,
+    /// What our body as drawn lies off our centreline, on each side: room
+    /// we need beside our width to pass a body beside our way. Read only for
+    /// road conflicts, once.
+    off_centreline: std::cell::OnceCell<f64>,
 }
 
 impl Search<'_, '_> {
@@ -227,8 +227,8 @@ impl Search<'_, '_> {
                 // A junction lane of our own path: its bodies are our leaders. A road
                 // conflict with our own path is a tight loop: the body is in the way.
                 || (!z.road && v.path.contains(&z.source))
-                // Only road zones are passable; the room is read for them alone.
-                || (z.road && z.passable(self.room_needed()))
+                // Only road zones are passable; the offset is read for them alone.
+                || (z.road && z.passable(self.v.width, self.v.length, self.off_centreline()))
             {
                 continue;
             }
@@ -275,41 +275,14 @@ impl Search<'_, '_> {
     /// waits for our body.
     fn where_crossing_begins(&self, claimant: u32, ours: f64) -> Option<f64> {
         let theirs = &self.snap.vehicles[claimant as usize].path;
-        let theirs = &theirs[..theirs.len().min(3)];
-        // The zones with their path before `ours`, in order along our path
-        // (each lane's are sorted by start): the last run of them with gaps
-        // under CONTIGUOUS_ZONES, if it reaches `ours`, is the crossing.
-        let mut run: Option<(f64, f64)> = None;
-        for (_, lane, offset) in lanes_ahead(self.snap.net, self.v) {
-            if offset >= ours {
-                break;
-            }
-            let zones = self.snap.net.lane(lane).conflicts.iter();
-            for c in zones.filter(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0) {
-                let (a0, a1) = (offset + c.a0, offset + c.a1);
-                if a0 >= ours {
-                    break;
-                }
-                run = match run {
-                    Some((start, end)) if a0 <= end + CONTIGUOUS_ZONES => {
-                        Some((start, end.max(a1)))
-                    }
-                    _ => Some((a0, a1)),
-                };
-            }
-        }
-        let begins = match run {
-            Some((start, end)) if end >= ours - CONTIGUOUS_ZONES => start,
-            _ => ours,
-        };
+        let begins = crossing_begins(self.snap.net, self.v, theirs, ours);
         (begins > 0.0).then_some(begins)
     }
 
     /// A vehicle on the other lane of conflict `c`, or on a lane just before
-    /// it, that will reach the zone before us: too wide to pass us there, its
-    /// front nearer to the zone than ours (`ours` metres; equally near, the
-    /// lower id goes first), and neither an obstacle nor a red light stops
-    /// it before.
+    /// it, that will reach the zone before us: too wide to pass us there,
+    /// first into the crossing of our ways (see [`goes_first`]), and neither
+    /// an obstacle, a red light nor a junction's rule stops it before.
     fn claimant(&self, c: &Conflict, ours: f64) -> Option<u32> {
         let (snap, i) = (self.snap, self.i);
         let (lane, zone) = (c.other, c.b0);
@@ -317,25 +290,31 @@ impl Search<'_, '_> {
             .on_lane_or_before(snap.net, lane)
             .find_map(|(o, front)| {
                 let to_zone = zone - front;
-                let nearer =
-                    to_zone < ours || (to_zone == ours && self.id_of(o.vehicle) < self.v.id);
-                if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 || !nearer {
+                if o.ghost || o.vehicle as usize == i || to_zone <= 0.0 {
                     return None;
                 }
                 let w = &snap.vehicles[o.vehicle as usize];
-                let passes_us = (self.v.width + w.width) * 0.5 < c.room;
+                // As a body standing there would be passed (BlockedZone::passable).
+                let passes_us = (self.v.width + w.width) * 0.5
+                    + self.off_centreline()
+                    + w.drawn_off_centreline(snap.net)
+                    < c.room_for(self.v.length, w.length);
                 let held = w.distance_to_front < to_zone
                     || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
-                    || self.waits_at_zone_for_lower_id(w, to_zone);
+                    || self.waits_at_zone_for_lower_id(w, to_zone)
+                    // Standing for a junction's rule (or holding for one let through).
+                    || (w.yield_phase.is_yielding() && w.speed < super::deadlock::STOPPED_SPEED);
                 let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
-                (!(passes_us || held || heads_elsewhere)).then_some(o.vehicle)
+                let first = !(passes_us || held || heads_elsewhere)
+                    && goes_first(snap.net, w, self.v, (to_zone, ours));
+                first.then_some(o.vehicle)
             })
     }
 
-    fn room_needed(&self) -> f64 {
+    fn off_centreline(&self) -> f64 {
         *self
-            .room_needed
-            .get_or_init(|| self.v.width + 2.0 * self.v.drawn_off_centreline(self.snap.net))
+            .off_centreline
+            .get_or_init(|| self.v.drawn_off_centreline(self.snap.net))
     }
 
     /// Two lanes that come close twice (where they merge side by side) give
@@ -347,6 +326,72 @@ impl Search<'_, '_> {
         w.speed < super::deadlock::STOPPED_SPEED
             && w.distance_to_front <= to_zone + ZONE_WAIT_TOLERANCE
             && self.v.id < w.id
+    }
+}
+
+/// How many lanes of each way are looked along for where the two ways meet.
+const WAYS_MEET_LANES: usize = 4;
+
+/// Of two vehicles whose ways cross, does `a` go before `b`? Ways may meet
+/// at several zones (they cross and cross back, or run side by side too
+/// narrow to pass), and each may be nearer to a different one: the one
+/// nearer to where the ways first meet for it goes first (equally near, the
+/// lower id), as both see it the same. Ways that do not meet within the
+/// lanes looked at fall back to the zone at hand (`near`: metres from a's
+/// and b's fronts to it).
+fn goes_first(net: &LaneNetwork, a: &Vehicle, b: &Vehicle, near: (f64, f64)) -> bool {
+    let (da, db) = match (
+        first_meeting(net, a, &b.path),
+        first_meeting(net, b, &a.path),
+    ) {
+        (Some(da), Some(db)) => (da, db),
+        _ => near,
+    };
+    da < db || (da == db && a.id < b.id)
+}
+
+/// Metres from `runner`'s front to the first zone of its way that meets the
+/// first lanes of `other_path` (negative when its front is in it already).
+fn first_meeting(net: &LaneNetwork, runner: &Vehicle, other_path: &[LaneId]) -> Option<f64> {
+    let theirs = &other_path[..other_path.len().min(WAYS_MEET_LANES)];
+    lanes_ahead(net, runner)
+        .take(WAYS_MEET_LANES)
+        .find_map(|(_, lane, offset)| {
+            net.lane(lane)
+                .conflicts
+                .iter()
+                .find(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0)
+                .map(|c| offset + c.a0)
+        })
+}
+
+/// Metres from `runner`'s front to where its crossing of `other_path` begins,
+/// for the zone `zone` metres ahead: the zones with the first lanes of that
+/// path before `zone`, in order along the runner's path (each lane's are
+/// sorted by start); the last run of them with gaps under CONTIGUOUS_ZONES,
+/// if it reaches `zone`, is the crossing. Not positive once its front is in.
+fn crossing_begins(net: &LaneNetwork, runner: &Vehicle, other_path: &[LaneId], zone: f64) -> f64 {
+    let theirs = &other_path[..other_path.len().min(3)];
+    let mut run: Option<(f64, f64)> = None;
+    for (_, lane, offset) in lanes_ahead(net, runner) {
+        if offset >= zone {
+            break;
+        }
+        let zones = net.lane(lane).conflicts.iter();
+        for c in zones.filter(|c| theirs.contains(&c.other) && offset + c.a1 > 0.0) {
+            let (a0, a1) = (offset + c.a0, offset + c.a1);
+            if a0 >= zone {
+                break;
+            }
+            run = match run {
+                Some((start, end)) if a0 <= end + CONTIGUOUS_ZONES => Some((start, end.max(a1))),
+                _ => Some((a0, a1)),
+            };
+        }
+    }
+    match run {
+        Some((start, end)) if end >= zone - CONTIGUOUS_ZONES => start,
+        _ => zone,
     }
 }
 

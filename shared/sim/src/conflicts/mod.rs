@@ -43,9 +43,28 @@ pub struct Conflict {
     /// Not between two intersection lanes: no right of way covers it.
     pub road: bool,
     /// Road conflicts: the least distance between the centrelines in the zone,
-    /// less what long bodies swing out on curves. Two vehicles whose half
-    /// widths add up to less pass each other. Zero for junction conflicts.
+    /// less what the longest bodies swing out on curves there ([`Self::sweep`]).
+    /// Two vehicles whose half widths add up to less pass each other. Zero
+    /// for junction conflicts.
     pub room: f64,
+    /// What the longest bodies on both lanes swing out where the room is
+    /// least: shorter ones swing out less (see [`Self::room_for`]).
+    pub sweep: f64,
+}
+
+impl Conflict {
+    /// The room between two bodies of these lengths: a body swings out of
+    /// its corridor on a curve by about the chord's offset over its length,
+    /// so the sweep taken for the longest shrinks with the longer of the two.
+    pub fn room_for(&self, length: f64, other_length: f64) -> f64 {
+        room_between(self.room, self.sweep, length.max(other_length))
+    }
+}
+
+/// A road conflict's room (`room` less `sweep`, see [`Conflict::room`]) for
+/// two bodies the longer of which is `longest` metres long.
+pub fn room_between(room: f64, sweep: f64, longest: f64) -> f64 {
+    room + sweep::unswept(sweep, longest)
 }
 
 /// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b, with
@@ -58,40 +77,43 @@ fn close_intervals(
     (ia, ib): (usize, usize),
     road: bool,
     link: Option<Link>,
-) -> Vec<(f64, f64, f64)> {
+) -> Vec<(f64, f64, f64, f64)> {
     let (a, b) = (&lanes[ia], &lanes[ib]);
     let len = a.length();
     let n = (len / SAMPLE_STEP).ceil().max(1.0) as usize;
     let mut out = Vec::new();
-    let mut open: Option<(f64, f64)> = None;
+    // (start, least room, the sweeps there)
+    let mut open: Option<(f64, f64, f64)> = None;
     for k in 0..=n {
         let s = (k as f64 * SAMPLE_STEP).min(len);
         let p = a.line.point_at(s).0;
         let t = b.line.project(p);
         let distance = b.line.distance_to(p);
-        let (reach, room) = if road {
+        let (reach, room, sweeps) = if road {
             let sweeps = sweep(lanes, ia, s) + sweep(lanes, ib, t);
             (
                 ROAD_CONFLICT_DISTANCE + sweeps,
                 (distance - sweeps).max(0.0),
+                sweeps.min(distance),
             )
         } else {
-            (CONFLICT_DISTANCE, 0.0)
+            (CONFLICT_DISTANCE, 0.0, 0.0)
         };
         let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > distance + JOINT_SLACK);
         let close = apart && distance < reach;
         open = match (close, open) {
-            (true, None) => Some((s, room)),
-            (true, Some((s0, least))) => Some((s0, least.min(room))),
-            (false, Some((s0, least))) => {
-                out.push((s0, s, least));
+            (true, None) => Some((s, room, sweeps)),
+            (true, Some((s0, least, _))) if room < least => Some((s0, room, sweeps)),
+            (true, kept) => kept,
+            (false, Some((s0, least, sweeps))) => {
+                out.push((s0, s, least, sweeps));
                 None
             }
             (false, None) => None,
         };
     }
-    if let Some((s0, least)) = open {
-        out.push((s0, len, least));
+    if let Some((s0, least, sweeps)) = open {
+        out.push((s0, len, least, sweeps));
     }
     out
 }
@@ -187,8 +209,8 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
     }
     for (a, b) in pairs {
         let (la, lb) = (&lanes[a], &lanes[b]);
-        let road = !(la.intersection && lb.intersection);
-        let reach = if road {
+        let mut road = !(la.intersection && lb.intersection);
+        let reach = if road || outside_junctions {
             ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP
         } else {
             CONFLICT_DISTANCE
@@ -197,15 +219,22 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             continue;
         }
         let link = link(lanes, a, b);
-        let on_a = close_intervals(lanes, (a, b), road, link);
+        let mut on_a = close_intervals(lanes, (a, b), road, link);
+        if on_a.is_empty() && !road && outside_junctions {
+            // Junction lanes side by side (a double turn): too far apart to
+            // cross, not for a long body swinging out. No rule orders the two:
+            // a road conflict, passed by bodies that fit.
+            road = true;
+            on_a = close_intervals(lanes, (a, b), road, link);
+        }
         if on_a.is_empty() {
             continue;
         }
         let on_b = close_intervals(lanes, (b, a), road, link.map(Link::reversed));
         let mut found = Vec::new();
-        for &(a0, a1, room_a) in &on_a {
+        for &(a0, a1, room_a, sweep_a) in &on_a {
             let mid_a = la.line.point_at((a0 + a1) * 0.5).0;
-            let Some(&(b0, b1, room_b)) = on_b.iter().min_by(|x, y| {
+            let Some(&(b0, b1, room_b, sweep_b)) = on_b.iter().min_by(|x, y| {
                 let dx = lb.line.point_at((x.0 + x.1) * 0.5).0.distance(mid_a);
                 let dy = lb.line.point_at((y.0 + y.1) * 0.5).0.distance(mid_a);
                 dx.total_cmp(&dy)
@@ -214,9 +243,14 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             };
             let cos = heading_at(la, (a0 + a1) * 0.5).dot(heading_at(lb, (b0 + b1) * 0.5));
             let parallel = cos > std::f64::consts::FRAC_1_SQRT_2;
-            found.push((a0, a1, b0, b1, parallel, room_a.min(room_b)));
+            let (room, sweep) = if room_a <= room_b {
+                (room_a, sweep_a)
+            } else {
+                (room_b, sweep_b)
+            };
+            found.push((a0, a1, b0, b1, parallel, room, sweep));
         }
-        for (a0, a1, b0, b1, parallel, room) in found {
+        for (a0, a1, b0, b1, parallel, room, sweep) in found {
             lanes[a].conflicts.push(Conflict {
                 other: b as LaneId,
                 a0,
@@ -226,6 +260,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
                 parallel,
                 road,
                 room,
+                sweep,
             });
             lanes[b].conflicts.push(Conflict {
                 other: a as LaneId,
@@ -236,6 +271,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
                 parallel,
                 road,
                 room,
+                sweep,
             });
         }
         if !road {

@@ -37,3 +37,9 @@ pub(super) fn sweep(lanes: &[Lane], id: usize, s: f64) -> f64 {
     let angle = turn.clamp(-1.0, 1.0).acos();
     (HALF_BODY * (angle * 0.5).sin()).min(MAX_SWEEP)
 }
+
+/// Of a sweep taken for the longest body, what a body `length` long does not
+/// swing out: the chord's offset grows with the half length it spans.
+pub(super) fn unswept(sweep: f64, length: f64) -> f64 {
+    sweep * (1.0 - 0.5 * length / HALF_BODY).max(0.0)
+}

@@ -145,7 +145,9 @@ impl World {
         }
         // Bodies of other lanes standing in this lane's conflict zones near its start.
         if self.index.blocked_zones(lane).iter().any(|z| {
-            z.start < front + CLEARANCE && z.end > rear - CLEARANCE && !z.passable(kind.width)
+            z.start < front + CLEARANCE
+                && z.end > rear - CLEARANCE
+                && !z.passable(kind.width, f64::INFINITY, 0.0)
         }) {
             return false;
         }
@@ -192,7 +194,7 @@ impl World {
                         .index
                         .blocked_zones(n)
                         .iter()
-                        .any(|z| z.start < overflow && !z.passable(width))
+                        .any(|z| z.start < overflow && !z.passable(width, f64::INFINITY, 0.0))
                     || self.ahead_taken(n, overflow - self.net.lane(n).length(), width)
             })
     }
