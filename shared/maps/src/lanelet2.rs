@@ -1,5 +1,6 @@
 //! Lanelet2 `.osm` import: vehicle lanelets become lanes (centreline from the
-//! left and right bounds), successors come from shared bound end points,
+//! left and right bounds, oriented as Lanelet2 orients them; a two-way lanelet
+//! is a lane each way on its half), successors come from shared bound end points,
 //! `speed_limit` and `turn_direction` tags carry over, traffic-light
 //! regulatory elements become light groups with their stop lines,
 //! `right_of_way` elements give who yields to whom, and crosswalk lanelets
