@@ -385,6 +385,14 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
     }
     let light_groups = synthesise_programs(&lanelets, &lanes, &light_lanes, &mut warnings);
 
+    let rings = give_rings_priority(&lanelets, &successors, &predecessors, &mut lanes);
+    if rings > 0 {
+        warnings.push(format!(
+            "{rings} roundabout(s) found (rings of lanelets under {RING_LANE_MAX} m, at most \
+             {RING_MAX} m round): lanes entering them yield to the ring"
+        ));
+    }
+
     // right_of_way elements: the yield lanelets yield to the right_of_way ones.
     for r in relations
         .values()
@@ -507,6 +515,105 @@ fn node_positions(
             )
         })
         .collect())
+}
+
+/// A roundabout's ring: lanes no longer than this, metres...
+const RING_LANE_MAX: f64 = 20.0;
+/// ... closing a loop no longer than this, metres, that turns once round.
+const RING_MAX: f64 = 120.0;
+/// The most lanes a ring is looked for with.
+const RING_MAX_LANES: usize = 16;
+
+/// Roundabouts that no `right_of_way` element marks (Lanelet2 has no
+/// roundabout tag): a loop of short lanes that turns once round. As at a
+/// roundabout's give-way line (and as netconvert makes them), a lane that
+/// leads into the ring yields to the ring lane it merges beside. Returns how
+/// many rings it found.
+fn give_rings_priority(
+    lanelets: &[Lanelet],
+    successors: &[Vec<usize>],
+    predecessors: &[Vec<usize>],
+    lanes: &mut [LaneDef],
+) -> usize {
+    let length = |i: usize| -> f64 {
+        lanelets[i]
+            .centre
+            .windows(2)
+            .map(|w| dist(w[0], w[1]))
+            .sum()
+    };
+    let short: Vec<bool> = (0..lanelets.len())
+        .map(|i| length(i) <= RING_LANE_MAX)
+        .collect();
+    let mut in_ring = vec![false; lanelets.len()];
+    let mut rings = 0;
+    for start in 0..lanelets.len() {
+        if !short[start] || in_ring[start] {
+            continue;
+        }
+        // Depth-first along short lanes with higher indices than the start, so
+        // each loop is found once, from its lowest lane.
+        let mut stack = vec![(start, 0usize)];
+        let mut path = vec![start];
+        let mut found = None;
+        while let Some((at, k)) = stack.pop() {
+            path.truncate(stack.len() + 1);
+            let Some(&next) = successors[at].get(k) else {
+                continue;
+            };
+            stack.push((at, k + 1));
+            if next == start && path.len() >= 3 {
+                let total: f64 = path.iter().map(|&i| length(i)).sum();
+                if total <= RING_MAX && turns_once_round(lanelets, &path) {
+                    found = Some(path.clone());
+                    break;
+                }
+            } else if next > start
+                && short[next]
+                && !path.contains(&next)
+                && path.len() < RING_MAX_LANES
+            {
+                path.push(next);
+                stack.push((next, 0));
+            }
+        }
+        let Some(ring) = found else { continue };
+        rings += 1;
+        for &r in &ring {
+            in_ring[r] = true;
+        }
+        for (k, &r) in ring.iter().enumerate() {
+            let before = ring[(k + ring.len() - 1) % ring.len()];
+            for &entry in predecessors[r].iter().filter(|&&p| !ring.contains(&p)) {
+                let name = lanelets[before].name.clone();
+                if !lanes[entry].right_of_way.contains(&name) {
+                    lanes[entry].right_of_way.push(name);
+                }
+            }
+        }
+    }
+    rings
+}
+
+/// Does a loop of lanes turn once round (its headings adding up to ±360°)?
+fn turns_once_round(lanelets: &[Lanelet], ring: &[usize]) -> bool {
+    let points: Vec<Xy> = ring
+        .iter()
+        .flat_map(|&i| lanelets[i].centre.iter().copied())
+        .collect();
+    let heading = |a: Xy, b: Xy| (b[1] - a[1]).atan2(b[0] - a[0]);
+    let steps: Vec<f64> = points
+        .windows(2)
+        .filter(|w| dist(w[0], w[1]) > 1e-6)
+        .map(|w| heading(w[0], w[1]))
+        .collect();
+    let mut total = 0.0;
+    for k in 0..steps.len() {
+        let d = steps[(k + 1) % steps.len()] - steps[k];
+        total +=
+            (d + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    }
+    (total.abs() - std::f64::consts::TAU).abs() < 0.5
 }
 
 /// Metres over which a one-way lanelet joining a two-way one eases from the
@@ -947,6 +1054,60 @@ mod tests {
             .windows(2)
             .map(|w| (w[1].0[1] - w[0].0[1]).abs() / (w[1].0[0] - w[0].0[0]));
         assert!(steps.fold(0.0, f64::max) < 0.3, "eased, not kinked");
+    }
+
+    #[test]
+    fn lanes_entering_a_roundabout_yield_to_the_ring() {
+        // A ring of four quarter circles anticlockwise round the origin
+        // (inner bound 6.5 m, outer 9.5 m; nodes 1.. inside, 101.. outside),
+        // and an entry from the east that joins it at the top.
+        let at = |r: f64, k: usize| {
+            let a = k as f64 * std::f64::consts::FRAC_PI_8;
+            (r * a.cos(), r * a.sin())
+        };
+        let mut nodes: Vec<(i64, f64, f64)> = Vec::new();
+        for k in 0..16 {
+            let ((ix, iy), (ox, oy)) = (at(6.5, k), at(9.5, k));
+            nodes.push((1 + k as i64, ix, iy));
+            nodes.push((101 + k as i64, ox, oy));
+        }
+        nodes.extend([(201, 20.0, 6.5), (202, 20.0, 9.5)]);
+        let quarter = |q: usize, base: i64| -> Vec<i64> {
+            (4 * q..=4 * q + 4)
+                .map(|k| base + (k % 16) as i64)
+                .collect()
+        };
+        let bounds: Vec<(i64, Vec<i64>)> = (0..4)
+            .flat_map(|q| {
+                [
+                    (10 + q as i64, quarter(q, 1)),
+                    (20 + q as i64, quarter(q, 101)),
+                ]
+            })
+            .chain([(30, vec![201, 5]), (31, vec![202, 105])])
+            .collect();
+        let ways: Vec<(i64, &[i64])> = bounds.iter().map(|(id, n)| (*id, n.as_slice())).collect();
+        let lanelets: Vec<(i64, i64, i64, &str)> = (0..4)
+            .map(|q| (100 + q, 10 + q, 20 + q, "yes"))
+            .chain([(200, 30, 31, "yes")])
+            .collect();
+        let imported = import("t", &osm(&nodes, &ways, &lanelets)).unwrap();
+        assert!(
+            imported
+                .warnings
+                .iter()
+                .any(|w| w.starts_with("1 roundabout(s) found")),
+            "{:?}",
+            imported.warnings
+        );
+        assert_eq!(lane(&imported, "ll_200").next, vec!["ll_101".to_string()]);
+        assert_eq!(
+            lane(&imported, "ll_200").right_of_way,
+            vec!["ll_100".to_string()]
+        );
+        for q in 100..104 {
+            assert!(lane(&imported, &format!("ll_{q}")).right_of_way.is_empty());
+        }
     }
 
     #[test]
