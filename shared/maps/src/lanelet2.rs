@@ -231,52 +231,39 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         let joins = (centre[0], centre[centre.len() - 1]);
         let (l0, l1) = first_last(&left_ids);
         let (r0, r1) = first_last(&right_ids);
+        let mut along = Lanelet {
+            id: r.id,
+            name: format!("ll_{}", r.id),
+            centre,
+            width,
+            start: (l0, r0),
+            end: (l1, r1),
+            joins,
+            speed,
+            turn,
+            regulatory,
+        };
         if r.tag("one_way") == Some("no") {
             // Both ways on one lanelet (Lanelet2's inverted lanelet for the
             // other): each keeps to its right half.
-            let (ahead, _) = centreline(&centre, &right);
-            let mut back_centre = centre.clone();
-            back_centre.reverse();
-            let mut back_right = left.clone();
-            back_right.reverse();
-            let (back, _) = centreline(&back_centre, &back_right);
-            lanelets.push(Lanelet {
-                id: r.id,
-                name: format!("ll_{}", r.id),
-                centre: ahead,
-                width: width * 0.5,
-                start: (l0, r0),
-                end: (l1, r1),
-                joins,
-                speed,
-                turn,
-                regulatory: regulatory.clone(),
-            });
-            lanelets.push(Lanelet {
-                id: r.id,
+            let back_middle: Vec<Xy> = along.centre.iter().rev().copied().collect();
+            let back_right: Vec<Xy> = left.iter().rev().copied().collect();
+            let back = Lanelet {
                 name: format!("ll_{}_r", r.id),
-                centre: back,
+                centre: centreline(&back_middle, &back_right).0,
                 width: width * 0.5,
                 start: (r1, l1),
                 end: (r0, l0),
                 joins: (joins.1, joins.0),
-                speed,
-                turn,
-                regulatory,
-            });
+                regulatory: along.regulatory.clone(),
+                ..along
+            };
+            along.centre = centreline(&along.centre, &right).0;
+            along.width = width * 0.5;
+            lanelets.push(along);
+            lanelets.push(back);
         } else {
-            lanelets.push(Lanelet {
-                id: r.id,
-                name: format!("ll_{}", r.id),
-                centre,
-                width,
-                start: (l0, r0),
-                end: (l1, r1),
-                joins,
-                speed,
-                turn,
-                regulatory,
-            });
+            lanelets.push(along);
         }
     }
     for (subtype, n) in &skipped {
@@ -535,16 +522,8 @@ fn give_rings_priority(
     predecessors: &[Vec<usize>],
     lanes: &mut [LaneDef],
 ) -> usize {
-    let length = |i: usize| -> f64 {
-        lanelets[i]
-            .centre
-            .windows(2)
-            .map(|w| dist(w[0], w[1]))
-            .sum()
-    };
-    let short: Vec<bool> = (0..lanelets.len())
-        .map(|i| length(i) <= RING_LANE_MAX)
-        .collect();
+    let lengths: Vec<f64> = lanelets.iter().map(|l| line_length(&l.centre)).collect();
+    let short: Vec<bool> = lengths.iter().map(|&l| l <= RING_LANE_MAX).collect();
     let mut in_ring = vec![false; lanelets.len()];
     let mut rings = 0;
     for start in 0..lanelets.len() {
@@ -563,7 +542,7 @@ fn give_rings_priority(
             };
             stack.push((at, k + 1));
             if next == start && path.len() >= 3 {
-                let total: f64 = path.iter().map(|&i| length(i)).sum();
+                let total: f64 = path.iter().map(|&i| lengths[i]).sum();
                 if total <= RING_MAX && turns_once_round(lanelets, &path) {
                     found = Some(path.clone());
                     break;
@@ -734,13 +713,17 @@ fn side_of(line: &[Xy], p: Xy) -> f64 {
     best.1
 }
 
+fn line_length(line: &[Xy]) -> f64 {
+    line.windows(2).map(|w| dist(w[0], w[1])).sum()
+}
+
 fn dist(a: Xy, b: Xy) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2)).sqrt()
 }
 
 /// The point at fraction t of a polyline's length.
 fn at_fraction(line: &[Xy], t: f64) -> Xy {
-    let total: f64 = line.windows(2).map(|w| dist(w[0], w[1])).sum();
+    let total = line_length(line);
     let mut left = t * total;
     for w in line.windows(2) {
         let d = dist(w[0], w[1]);

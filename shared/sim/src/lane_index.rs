@@ -4,6 +4,7 @@
 use rayon::prelude::*;
 
 use crate::buckets::Buckets;
+use crate::conflicts::{Body, bodies_pass};
 use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
 use crate::vehicle::Vehicle;
@@ -49,12 +50,14 @@ pub struct BlockedZone {
 }
 
 impl BlockedZone {
-    /// Does a vehicle `width` wide and `length` long, needing `off_centreline`
-    /// more on each side, pass the body beside it?
-    pub fn passable(&self, width: f64, length: f64, off_centreline: f64) -> bool {
-        self.road
-            && (width + self.width) * 0.5 + off_centreline + self.off_centreline
-                < crate::conflicts::room_between(self.room, self.sweep, length.max(self.length))
+    /// Does a vehicle pass the body beside it?
+    pub fn passable(&self, vehicle: Body) -> bool {
+        let body = Body {
+            width: self.width,
+            length: self.length,
+            off_centreline: self.off_centreline,
+        };
+        self.road && bodies_pass(self.room, self.sweep, vehicle, body)
     }
 }
 

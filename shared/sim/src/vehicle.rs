@@ -270,6 +270,16 @@ impl Vehicle {
             + DVec2::from_angle(self.pose.yaw) * (self.front_offset - self.length * 0.5)
     }
 
+    /// Its body as a road conflict reads it, lying `off_centreline` off its
+    /// centreline on each side.
+    pub fn body(&self, off_centreline: f64) -> crate::conflicts::Body {
+        crate::conflicts::Body {
+            width: self.width,
+            length: self.length,
+            off_centreline,
+        }
+    }
+
     /// Unit heading, kept in step with `pose.yaw` by the Control step.
     pub fn forward(&self) -> DVec2 {
         self.heading

@@ -7,7 +7,7 @@ use trafficmesh_model::LightColor;
 
 use super::Snapshot;
 use super::path::{lanes_ahead, needed_lookahead};
-use crate::conflicts::Conflict;
+use crate::conflicts::{Conflict, bodies_pass};
 use crate::ego::Ego;
 use crate::geometry::segments_intersect;
 use crate::lane_change;
@@ -228,7 +228,7 @@ impl Search<'_, '_> {
                 // conflict with our own path is a tight loop: the body is in the way.
                 || (!z.road && v.path.contains(&z.source))
                 // Only road zones are passable; the offset is read for them alone.
-                || (z.road && z.passable(self.v.width, self.v.length, self.off_centreline()))
+                || (z.road && z.passable(v.body(self.off_centreline())))
             {
                 continue;
             }
@@ -283,7 +283,7 @@ impl Search<'_, '_> {
     /// it, that will reach the zone before us: too wide to pass us there,
     /// first into the crossing of our ways (see [`goes_first`]), and neither
     /// an obstacle, a red light nor a junction's rule stops it before.
-    fn claimant(&self, c: &Conflict, ours: f64) -> Option<u32> {
+    fn claimant(&self, c: &Conflict, ours_to_zone: f64) -> Option<u32> {
         let (snap, i) = (self.snap, self.i);
         let (lane, zone) = (c.other, c.b0);
         snap.index
@@ -294,19 +294,20 @@ impl Search<'_, '_> {
                     return None;
                 }
                 let w = &snap.vehicles[o.vehicle as usize];
-                // As a body standing there would be passed (BlockedZone::passable).
-                let passes_us = (self.v.width + w.width) * 0.5
-                    + self.off_centreline()
-                    + w.drawn_off_centreline(snap.net)
-                    < c.room_for(self.v.length, w.length);
                 let held = w.distance_to_front < to_zone
                     || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
                     || self.waits_at_zone_for_lower_id(w, to_zone)
                     // Standing for a junction's rule (or holding for one let through).
                     || (w.yield_phase.is_yielding() && w.speed < super::deadlock::STOPPED_SPEED);
                 let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
-                let first = !(passes_us || held || heads_elsewhere)
-                    && goes_first(snap.net, w, self.v, (to_zone, ours));
+                if held || heads_elsewhere {
+                    return None;
+                }
+                // As a body standing there would be passed (BlockedZone::passable).
+                let ours = self.v.body(self.off_centreline());
+                let theirs = w.body(w.drawn_off_centreline(snap.net));
+                let first = !bodies_pass(c.room, c.sweep, ours, theirs)
+                    && goes_first(snap.net, w, self.v, (to_zone, ours_to_zone));
                 first.then_some(o.vehicle)
             })
     }

@@ -48,23 +48,37 @@ pub struct Conflict {
     /// for junction conflicts.
     pub room: f64,
     /// What the longest bodies on both lanes swing out where the room is
-    /// least: shorter ones swing out less (see [`Self::room_for`]).
+    /// least: shorter ones swing out less (see [`bodies_pass`]).
     pub sweep: f64,
 }
 
-impl Conflict {
-    /// The room between two bodies of these lengths: a body swings out of
-    /// its corridor on a curve by about the chord's offset over its length,
-    /// so the sweep taken for the longest shrinks with the longer of the two.
-    pub fn room_for(&self, length: f64, other_length: f64) -> f64 {
-        room_between(self.room, self.sweep, length.max(other_length))
+/// One of two bodies meeting in a road conflict: its width and length, and
+/// what it as drawn lies off its centreline on each side.
+#[derive(Clone, Copy, Debug)]
+pub struct Body {
+    pub width: f64,
+    pub length: f64,
+    pub off_centreline: f64,
+}
+
+impl Body {
+    /// A body about to be placed on its lane: on its centreline, taken to
+    /// swing out as far as the longest.
+    pub fn new_on_lane(width: f64) -> Body {
+        Body {
+            width,
+            length: f64::INFINITY,
+            off_centreline: 0.0,
+        }
     }
 }
 
-/// A road conflict's room (`room` less `sweep`, see [`Conflict::room`]) for
-/// two bodies the longer of which is `longest` metres long.
-pub fn room_between(room: f64, sweep: f64, longest: f64) -> f64 {
-    room + sweep::unswept(sweep, longest)
+/// Do two bodies pass each other in a road conflict with this `room` and
+/// `sweep` (see [`Conflict`])? Their half widths and offsets must fit in the
+/// room, which gets back what the longer body does not swing out.
+pub fn bodies_pass(room: f64, sweep: f64, a: Body, b: Body) -> bool {
+    (a.width + b.width) * 0.5 + a.off_centreline + b.off_centreline
+        < room + sweep::unswept(sweep, a.length.max(b.length))
 }
 
 /// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b, with

@@ -4,6 +4,7 @@
 use glam::DVec2;
 
 use super::World;
+use crate::conflicts::Body;
 use crate::control::update_pose;
 use crate::decision::StopDistances;
 use crate::events::SimEvent;
@@ -147,7 +148,7 @@ impl World {
         if self.index.blocked_zones(lane).iter().any(|z| {
             z.start < front + CLEARANCE
                 && z.end > rear - CLEARANCE
-                && !z.passable(kind.width, f64::INFINITY, 0.0)
+                && !z.passable(Body::new_on_lane(kind.width))
         }) {
             return false;
         }
@@ -194,7 +195,7 @@ impl World {
                         .index
                         .blocked_zones(n)
                         .iter()
-                        .any(|z| z.start < overflow && !z.passable(width, f64::INFINITY, 0.0))
+                        .any(|z| z.start < overflow && !z.passable(Body::new_on_lane(width)))
                     || self.ahead_taken(n, overflow - self.net.lane(n).length(), width)
             })
     }
