@@ -4,7 +4,7 @@
 use rayon::prelude::*;
 
 use crate::buckets::Buckets;
-use crate::conflicts::{Body, bodies_pass};
+use crate::conflicts::{Body, Gap, bodies_pass};
 use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
 use crate::vehicle::Vehicle;
@@ -42,9 +42,9 @@ pub struct BlockedZone {
     pub road: bool,
     pub width: f64,
     pub length: f64,
-    /// The conflict's room and sweep (see [`crate::conflicts::Conflict`]).
-    pub room: f64,
-    pub sweep: f64,
+    /// The conflict's gap, seen from the blocked lane (see
+    /// [`crate::conflicts::Conflict`]).
+    pub gap: Gap,
     /// What the body as drawn lies off its centreline.
     pub off_centreline: f64,
 }
@@ -57,7 +57,7 @@ impl BlockedZone {
             length: self.length,
             off_centreline: self.off_centreline,
         };
-        self.road && bodies_pass(self.room, self.sweep, vehicle, body)
+        self.road && bodies_pass(self.gap, vehicle, body)
     }
 }
 
@@ -147,8 +147,7 @@ impl ChunkItems {
                             road: c.road,
                             width: v.width,
                             length: v.length,
-                            room: c.room,
-                            sweep: c.sweep,
+                            gap: c.gap.mirrored(),
                             off_centreline: if c.road {
                                 *off_centreline.get_or_insert_with(|| v.drawn_off_centreline(net))
                             } else {

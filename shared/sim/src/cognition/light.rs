@@ -49,12 +49,20 @@ const STANDING: f64 = 1.0;
 /// Every signalised stop line of the path still ahead is obeyed: the first
 /// one that makes the vehicle stop, else the first one. (A line already
 /// passed no longer applies, the reference's "value < 0 becomes +inf",
-/// except to a vehicle standing on it: at red it stays, however it came to
-/// stand there. Two lines close together, or at one point for two signal
-/// groups, are both looked at, not only the nearer.)
+/// except to a vehicle standing on it, also where it ends the lane just
+/// left: at red it stays, however it came to stand there. Two lines close
+/// together, or at one point for two signal groups, are both looked at, not
+/// only the nearer.)
 pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
     let mut first = None;
-    for (_, lane, offset) in lanes_ahead(snap.net, v) {
+    // A line at the end of the lane just left is still under a front that
+    // stopped a hair past it.
+    let behind = (v.s < PAST_LINE)
+        .then(|| v.behind.latest())
+        .flatten()
+        .map(|b| (b, -v.s - snap.net.lane(b).length()));
+    let ahead = lanes_ahead(snap.net, v).map(|(_, lane, offset)| (lane, offset));
+    for (lane, offset) in behind.into_iter().chain(ahead) {
         let l = snap.net.lane(lane);
         let Some(group) = l.light else { continue };
         let distance = offset + l.light_stop_s();

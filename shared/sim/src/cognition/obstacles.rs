@@ -97,6 +97,11 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             });
         }
     }
+    if let Some(k) = best.vehicle
+        && snap.vehicles[k as usize].speed < super::deadlock::STOPPED_SPEED
+    {
+        best.distance = search.clear_of_road_crossings(best.distance);
+    }
     // A lane change under way: while its front still reaches into the lane
     // it left, it keeps behind the body ahead there too, closer than in a
     // queue, as it swings out past that body's corner.
@@ -306,10 +311,51 @@ impl Search<'_, '_> {
                 // As a body standing there would be passed (BlockedZone::passable).
                 let ours = self.v.body(self.off_centreline());
                 let theirs = w.body(w.drawn_off_centreline(snap.net));
-                let first = !bodies_pass(c.room, c.sweep, ours, theirs)
+                let first = !bodies_pass(c.gap, ours, theirs)
                     && goes_first(snap.net, w, self.v, (to_zone, ours_to_zone));
                 first.then_some(o.vehicle)
             })
+    }
+
+    /// The obstacle distance to keep for a standing body `stop_at` metres
+    /// ahead, so that the obstacle does not lie in a road crossing (or a
+    /// stretch too narrow to pass a body like ours) that our front has not
+    /// entered yet: no right of way covers it, and a body left standing
+    /// there would block the other lane's traffic, which may be what the
+    /// body we wait for waits for. Where a body of ours at the obstacle
+    /// would reach into such a zone, the obstacle moves back to the zone's
+    /// start; the zones are taken from the farthest ahead back, so that an
+    /// obstacle moved back into an earlier one moves again, before that one.
+    fn clear_of_road_crossings(&self, stop_at: f64) -> f64 {
+        let (net, v) = (self.snap.net, self.v);
+        let ours = v.body(0.0);
+        let mut zones: Vec<(f64, f64)> = Vec::new();
+        for (_, lane, offset) in lanes_ahead(net, v) {
+            if offset >= stop_at {
+                break;
+            }
+            let l = net.lane(lane);
+            if !l.road_conflicts {
+                continue;
+            }
+            for c in l.conflicts.iter().filter(|c| c.road && !c.parallel) {
+                let (z0, z1) = (offset + c.a0, offset + c.a1);
+                if z0 >= stop_at {
+                    break;
+                }
+                if z0 > 0.0 && z1 > stop_at - v.length && !bodies_pass(c.gap, ours, ours) {
+                    zones.push((z0, z1));
+                }
+            }
+        }
+        let mut stop = stop_at;
+        zones.sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
+        for (z0, z1) in zones {
+            if z0 < stop && z1 > stop - v.length {
+                stop = z0;
+            }
+        }
+        stop
     }
 
     fn off_centreline(&self) -> f64 {

@@ -24,7 +24,7 @@ use sweep::{MAX_SWEEP, sweep};
 pub const CONFLICT_DISTANCE: f64 = 2.6;
 /// Road conflicts reach further, to two trucks side by side; whether two
 /// bodies fit past each other there is decided by their widths at run time
-/// (see [`Conflict::room`]).
+/// (see [`bodies_pass`]).
 pub const ROAD_CONFLICT_DISTANCE: f64 = 3.1;
 const SAMPLE_STEP: f64 = 0.5;
 const GRID_CELL: f64 = 40.0;
@@ -42,14 +42,38 @@ pub struct Conflict {
     pub parallel: bool,
     /// Not between two intersection lanes: no right of way covers it.
     pub road: bool,
-    /// Road conflicts: the least distance between the centrelines in the zone,
-    /// less what the longest bodies swing out on curves there ([`Self::sweep`]).
-    /// Two vehicles whose half widths add up to less pass each other. Zero
-    /// for junction conflicts.
-    pub room: f64,
-    /// What the longest bodies on both lanes swing out where the room is
-    /// least: shorter ones swing out less (see [`bodies_pass`]).
-    pub sweep: f64,
+    /// Road conflicts: how close the two ways come, and what bodies swing
+    /// out there (see [`bodies_pass`]). Zero for junction conflicts.
+    pub gap: Gap,
+}
+
+/// What a road conflict leaves two bodies side by side, where it is
+/// tightest (the least distance between the centrelines once the longest
+/// bodies' swing on curves is taken off).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Gap {
+    /// The distance between the two centrelines there.
+    pub distance: f64,
+    /// What the longest body swings out there on this lane, and on the other.
+    pub sweep_here: f64,
+    pub sweep_other: f64,
+}
+
+impl Gap {
+    /// The same gap seen from the other lane.
+    pub fn mirrored(self) -> Gap {
+        Gap {
+            sweep_here: self.sweep_other,
+            sweep_other: self.sweep_here,
+            ..self
+        }
+    }
+
+    /// The room left for bodies of every size: the distance less both
+    /// sweeps.
+    fn room(self) -> f64 {
+        (self.distance - self.sweep_here - self.sweep_other).max(0.0)
+    }
 }
 
 /// One of two bodies meeting in a road conflict: its width and length, and
@@ -71,14 +95,22 @@ impl Body {
             off_centreline: 0.0,
         }
     }
+
+    /// How far the body reaches from its centreline toward the other's in a
+    /// conflict where the longest body on its lane swings out `sweep`: half
+    /// its width, and the more of what it as drawn lies off the centreline
+    /// now and what a body of its length swings out there (the same bend
+    /// seen now and ahead, not added).
+    fn reach(self, sweep: f64) -> f64 {
+        self.width * 0.5 + self.off_centreline.max(sweep::swept(sweep, self.length))
+    }
 }
 
-/// Do two bodies pass each other in a road conflict with this `room` and
-/// `sweep` (see [`Conflict`])? Their half widths and offsets must fit in the
-/// room, which gets back what the longer body does not swing out.
-pub fn bodies_pass(room: f64, sweep: f64, a: Body, b: Body) -> bool {
-    (a.width + b.width) * 0.5 + a.off_centreline + b.off_centreline
-        < room + sweep::unswept(sweep, a.length.max(b.length))
+/// Do two bodies, `here` on this lane of a road conflict with this `gap`
+/// and `other` on the other lane, pass each other? Their reaches toward each
+/// other must fit in the distance between the centrelines.
+pub fn bodies_pass(gap: Gap, here: Body, other: Body) -> bool {
+    here.reach(gap.sweep_here) + other.reach(gap.sweep_other) < gap.distance
 }
 
 /// Intervals of lane a's arc length within CONFLICT_DISTANCE of lane b, with
@@ -91,43 +123,47 @@ fn close_intervals(
     (ia, ib): (usize, usize),
     road: bool,
     link: Option<Link>,
-) -> Vec<(f64, f64, f64, f64)> {
+) -> Vec<(f64, f64, Gap)> {
     let (a, b) = (&lanes[ia], &lanes[ib]);
     let len = a.length();
     let n = (len / SAMPLE_STEP).ceil().max(1.0) as usize;
     let mut out = Vec::new();
-    // (start, least room, the sweeps there)
-    let mut open: Option<(f64, f64, f64)> = None;
+    // (start, least room, the gap there)
+    let mut open: Option<(f64, f64, Gap)> = None;
     for k in 0..=n {
         let s = (k as f64 * SAMPLE_STEP).min(len);
         let p = a.line.point_at(s).0;
         let t = b.line.project(p);
         let distance = b.line.distance_to(p);
-        let (reach, room, sweeps) = if road {
-            let sweeps = sweep(lanes, ia, s) + sweep(lanes, ib, t);
+        let (reach, gap) = if road {
+            let gap = Gap {
+                distance,
+                sweep_here: sweep(lanes, ia, s),
+                sweep_other: sweep(lanes, ib, t),
+            };
             (
-                ROAD_CONFLICT_DISTANCE + sweeps,
-                (distance - sweeps).max(0.0),
-                sweeps.min(distance),
+                ROAD_CONFLICT_DISTANCE + gap.sweep_here + gap.sweep_other,
+                gap,
             )
         } else {
-            (CONFLICT_DISTANCE, 0.0, 0.0)
+            (CONFLICT_DISTANCE, Gap::default())
         };
+        let room = gap.room();
         let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > distance + JOINT_SLACK);
         let close = apart && distance < reach;
         open = match (close, open) {
-            (true, None) => Some((s, room, sweeps)),
-            (true, Some((s0, least, _))) if room < least => Some((s0, room, sweeps)),
+            (true, None) => Some((s, room, gap)),
+            (true, Some((s0, least, _))) if room < least => Some((s0, room, gap)),
             (true, kept) => kept,
-            (false, Some((s0, least, sweeps))) => {
-                out.push((s0, s, least, sweeps));
+            (false, Some((s0, _, gap))) => {
+                out.push((s0, s, gap));
                 None
             }
             (false, None) => None,
         };
     }
-    if let Some((s0, least, sweeps)) = open {
-        out.push((s0, len, least, sweeps));
+    if let Some((s0, _, gap)) = open {
+        out.push((s0, len, gap));
     }
     out
 }
@@ -246,9 +282,9 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
         }
         let on_b = close_intervals(lanes, (b, a), road, link.map(Link::reversed));
         let mut found = Vec::new();
-        for &(a0, a1, room_a, sweep_a) in &on_a {
+        for &(a0, a1, gap_a) in &on_a {
             let mid_a = la.line.point_at((a0 + a1) * 0.5).0;
-            let Some(&(b0, b1, room_b, sweep_b)) = on_b.iter().min_by(|x, y| {
+            let Some(&(b0, b1, gap_b)) = on_b.iter().min_by(|x, y| {
                 let dx = lb.line.point_at((x.0 + x.1) * 0.5).0.distance(mid_a);
                 let dy = lb.line.point_at((y.0 + y.1) * 0.5).0.distance(mid_a);
                 dx.total_cmp(&dy)
@@ -257,14 +293,15 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             };
             let cos = heading_at(la, (a0 + a1) * 0.5).dot(heading_at(lb, (b0 + b1) * 0.5));
             let parallel = cos > std::f64::consts::FRAC_1_SQRT_2;
-            let (room, sweep) = if room_a <= room_b {
-                (room_a, sweep_a)
+            // Where the room is least, seen from either lane.
+            let gap = if gap_a.room() <= gap_b.room() {
+                gap_a
             } else {
-                (room_b, sweep_b)
+                gap_b.mirrored()
             };
-            found.push((a0, a1, b0, b1, parallel, room, sweep));
+            found.push((a0, a1, b0, b1, parallel, gap));
         }
-        for (a0, a1, b0, b1, parallel, room, sweep) in found {
+        for (a0, a1, b0, b1, parallel, gap) in found {
             lanes[a].conflicts.push(Conflict {
                 other: b as LaneId,
                 a0,
@@ -273,8 +310,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
                 b1,
                 parallel,
                 road,
-                room,
-                sweep,
+                gap,
             });
             lanes[b].conflicts.push(Conflict {
                 other: a as LaneId,
@@ -284,8 +320,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
                 b1: a1,
                 parallel,
                 road,
-                room,
-                sweep,
+                gap: gap.mirrored(),
             });
         }
         if !road {
@@ -317,4 +352,51 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             .sort_by(|x, y| x.a0.total_cmp(&y.a0).then(x.other.cmp(&y.other)));
     }
     ids.len() as u32
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn body(width: f64, length: f64, off_centreline: f64) -> Body {
+        Body {
+            width,
+            length,
+            off_centreline,
+        }
+    }
+
+    /// Two lanes 3 m apart in a bend where a truck swings 1.4 m out on
+    /// each: two cars, each drawn 0.3 m off its centreline, pass (a car
+    /// swings out a quarter as far, and its drawn offset is that same
+    /// swing, counted once); a truck and a car do not.
+    #[test]
+    fn two_cars_meeting_in_a_bend_pass_where_a_truck_and_a_car_do_not() {
+        let gap = Gap {
+            distance: 3.0,
+            sweep_here: 1.4,
+            sweep_other: 1.4,
+        };
+        let car = body(1.94, 4.64, 0.3);
+        let truck = body(3.08, 9.2, 0.3);
+        assert!(bodies_pass(gap, car, car));
+        assert!(!bodies_pass(gap, truck, car));
+        assert!(!bodies_pass(gap, car, truck));
+    }
+
+    /// Each body's own swing counts on its own side: a truck on the straight
+    /// lane beside a bend passes a car on the bend where it would not pass
+    /// it with the sides swapped.
+    #[test]
+    fn each_body_swings_out_by_the_sweep_of_its_own_lane() {
+        let gap = Gap {
+            distance: 3.4,
+            sweep_here: 0.0,
+            sweep_other: 1.2,
+        };
+        let car = body(1.94, 4.64, 0.0);
+        let truck = body(3.08, 9.2, 0.0);
+        assert!(bodies_pass(gap, truck, car));
+        assert!(!bodies_pass(gap.mirrored(), truck, car));
+    }
 }

@@ -38,11 +38,11 @@ pub(super) fn sweep(lanes: &[Lane], id: usize, s: f64) -> f64 {
     (HALF_BODY * (angle * 0.5).sin()).min(MAX_SWEEP)
 }
 
-/// Of a sweep taken for the longest body, what a body `length` long does not
-/// swing out. On a bend of radius r a body's ends leave the centreline by
-/// about the sagitta of its half length h, h² / 2r: a car half a truck's
-/// length swings out a quarter as far.
-pub(super) fn unswept(sweep: f64, length: f64) -> f64 {
+/// Of a sweep taken for the longest body, what a body `length` long swings
+/// out. On a bend of radius r a body's ends leave the centreline by about
+/// the sagitta of its half length h, h² / 2r: a car half a truck's length
+/// swings out a quarter as far.
+pub(super) fn swept(sweep: f64, length: f64) -> f64 {
     let h = (0.5 * length / HALF_BODY).min(1.0);
-    sweep * (1.0 - h * h)
+    sweep * h * h
 }

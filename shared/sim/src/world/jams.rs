@@ -91,6 +91,20 @@ impl World {
             let in_gridlock = gridlocked.contains(&v.id);
             if (timed_out || in_gridlock) && is_jammed_head(&self.net, &self.index, v) {
                 jammed.push((v.id, i));
+                if timed_out {
+                    tracing::debug!(
+                        "jam timeout at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) {:?} for {:?}, front {:.1} m",
+                        self.time,
+                        v.id,
+                        self.net.lane(v.path[0]).name,
+                        v.s,
+                        v.pose.x,
+                        v.pose.y,
+                        v.yield_phase,
+                        v.dominating,
+                        v.distance_to_front
+                    );
+                }
                 self.wait_stats.gridlocks_broken += u64::from(in_gridlock && !timed_out);
             }
         }
@@ -145,6 +159,13 @@ impl World {
         self.gridlocked = deadlock::gridlocks(vehicles, waits, patience)
             .into_iter()
             .filter_map(|cycle| {
+                if tracing::enabled!(tracing::Level::DEBUG) {
+                    tracing::debug!(
+                        "gridlock at {:.0} s: {}",
+                        self.time,
+                        describe_cycle(net, vehicles, waits, &cycle)
+                    );
+                }
                 cycle
                     .into_iter()
                     .map(|i| &vehicles[i])
@@ -202,6 +223,32 @@ impl World {
     pub fn insertion_backlog(&self) -> usize {
         self.spawner.backlog()
     }
+}
+
+/// A gridlock's members for the debug log, in waiting order: each one's id,
+/// lane, place on it and position, and whether a rule or a body holds it.
+fn describe_cycle(
+    net: &LaneNetwork,
+    vehicles: &[Vehicle],
+    waits: &[Wait],
+    cycle: &[usize],
+) -> String {
+    cycle
+        .iter()
+        .map(|&i| {
+            let v = &vehicles[i];
+            let held = if waits[i].1 { "rule" } else { "body" };
+            format!(
+                "#{} {} s={:.1} ({:.1}, {:.1}) {held}",
+                v.id,
+                net.lane(v.path[0]).name,
+                v.s,
+                v.pose.x,
+                v.pose.y
+            )
+        })
+        .collect::<Vec<_>>()
+        .join(" -> ")
 }
 
 fn at_red(v: &Vehicle) -> bool {
