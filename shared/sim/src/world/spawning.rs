@@ -30,6 +30,11 @@ pub enum SpawnRejection {
 }
 
 const CLEARANCE: f64 = 1.0;
+/// How far before a conflict zone vehicles coming to it are looked for,
+/// metres: beyond a stop from the highest speeds.
+const APPROACH_LOOKBACK: f64 = 60.0;
+/// Over at most this many lanes before it.
+const APPROACH_LANES: usize = 6;
 
 /// A spawn order from outside the world (the spawner service's), admitted in
 /// the next tick's spawn phase, after the world's own requests: the point of
@@ -153,11 +158,12 @@ impl World {
             return false;
         }
         // Vehicles about to drive onto the lane, or into a conflict zone the
-        // new body stands in.
-        if self.approaching(lane, 0.0)
-            || l.conflicts
-                .iter()
-                .any(|c| c.a0 < front + CLEARANCE && self.approaching(c.other, c.b0))
+        // new body stands in: crossing traffic may come over several short
+        // lanes (a lane a metre long between two others hides nobody).
+        if self.approaching(lane, 0.0, 1)
+            || l.conflicts.iter().any(|c| {
+                c.a0 < front + CLEARANCE && self.approaching(c.other, c.b0, APPROACH_LANES)
+            })
         {
             return false;
         }
@@ -200,16 +206,26 @@ impl World {
             })
     }
 
-    /// Does a vehicle on `lane`, or on a lane just before it, reach arc length
-    /// `s` of `lane` before it could stop?
-    fn approaching(&self, lane: LaneId, s: f64) -> bool {
+    /// Does a vehicle on `lane`, or on up to `lanes_back` lanes before it,
+    /// reach arc length `s` of `lane` before it could stop? The lanes before
+    /// are looked along for at most [`APPROACH_LOOKBACK`] metres.
+    fn approaching(&self, lane: LaneId, s: f64, lanes_back: usize) -> bool {
+        let reaches = |front: f64, speed: f64| {
+            let ahead = s - front;
+            ahead >= 0.0 && ahead < StopDistances::at(speed, &self.config.vehicle).stop + CLEARANCE
+        };
         self.index
-            .on_lane_or_before(&self.net, lane)
-            .any(|(o, front)| {
-                let ahead = s - front;
-                ahead >= 0.0
-                    && ahead < StopDistances::at(o.speed, &self.config.vehicle).stop + CLEARANCE
-            })
+            .on_lane(lane)
+            .iter()
+            .any(|o| reaches(o.front, o.speed))
+            || (s < APPROACH_LOOKBACK
+                && lanes_back > 0
+                && self
+                    .net
+                    .lane(lane)
+                    .prev
+                    .iter()
+                    .any(|&p| self.approaching(p, s + self.net.lane(p).length(), lanes_back - 1)))
     }
 
     /// Registers a new vehicle with its front bumper at `s` on `lane`.
