@@ -358,11 +358,28 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
 mod tests {
     use super::*;
 
-    fn body(width: f64, length: f64, off_centreline: f64) -> Body {
+    /// A car (Taxi) and a truck (Truck_2t), drawn `off` off their centrelines.
+    fn car(off: f64) -> Body {
         Body {
-            width,
-            length,
-            off_centreline,
+            width: 1.94,
+            length: 4.64,
+            off_centreline: off,
+        }
+    }
+
+    fn truck(off: f64) -> Body {
+        Body {
+            width: 3.08,
+            length: 9.2,
+            off_centreline: off,
+        }
+    }
+
+    fn gap(distance: f64, sweep_here: f64, sweep_other: f64) -> Gap {
+        Gap {
+            distance,
+            sweep_here,
+            sweep_other,
         }
     }
 
@@ -372,16 +389,10 @@ mod tests {
     /// swing, counted once); a truck and a car do not.
     #[test]
     fn two_cars_meeting_in_a_bend_pass_where_a_truck_and_a_car_do_not() {
-        let gap = Gap {
-            distance: 3.0,
-            sweep_here: 1.4,
-            sweep_other: 1.4,
-        };
-        let car = body(1.94, 4.64, 0.3);
-        let truck = body(3.08, 9.2, 0.3);
-        assert!(bodies_pass(gap, car, car));
-        assert!(!bodies_pass(gap, truck, car));
-        assert!(!bodies_pass(gap, car, truck));
+        let bend = gap(3.0, 1.4, 1.4);
+        assert!(bodies_pass(bend, car(0.3), car(0.3)));
+        assert!(!bodies_pass(bend, truck(0.3), car(0.3)));
+        assert!(!bodies_pass(bend, car(0.3), truck(0.3)));
     }
 
     /// Each body's own swing counts on its own side: a truck on the straight
@@ -389,14 +400,8 @@ mod tests {
     /// it with the sides swapped.
     #[test]
     fn each_body_swings_out_by_the_sweep_of_its_own_lane() {
-        let gap = Gap {
-            distance: 3.4,
-            sweep_here: 0.0,
-            sweep_other: 1.2,
-        };
-        let car = body(1.94, 4.64, 0.0);
-        let truck = body(3.08, 9.2, 0.0);
-        assert!(bodies_pass(gap, truck, car));
-        assert!(!bodies_pass(gap.mirrored(), truck, car));
+        let beside_a_bend = gap(3.4, 0.0, 1.2);
+        assert!(bodies_pass(beside_a_bend, truck(0.0), car(0.0)));
+        assert!(!bodies_pass(beside_a_bend.mirrored(), truck(0.0), car(0.0)));
     }
 }
