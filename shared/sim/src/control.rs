@@ -7,6 +7,7 @@
 
 use trafficmesh_model::{DriverModel, IdmParams, NpcVehicleConfig, SpeedLimitSource, SpeedMode};
 
+use crate::cognition::curve::is_turning;
 use crate::cognition::path::point_on_path;
 use crate::decision::StopCandidates;
 use crate::network::LaneNetwork;
@@ -78,7 +79,7 @@ pub fn step_speed(
         }
         DriverModel::Realistic(idm) => {
             let desired = ahead.map_or(speed_limit, |a| a.now);
-            realistic_speed(v, c, &idm, stops, desired, dt)
+            realistic_speed(net, v, c, &idm, stops, desired, dt)
         }
     };
     // Never braking harder than the absolute deceleration for it (a lane
@@ -97,6 +98,7 @@ pub fn step_speed(
 /// yield point, zebra) that the reference's rules say to stop at, braking no
 /// harder than the absolute deceleration.
 fn realistic_speed(
+    net: &LaneNetwork,
     v: &Vehicle,
     c: &NpcVehicleConfig,
     idm: &IdmParams,
@@ -108,7 +110,7 @@ fn realistic_speed(
     // One speed for every lane knows no turns; with every lane's own limit
     // in force the map gives the turn speeds (netconvert's on SUMO junctions,
     // the importer's on Lanelet2 ones), as SUMO takes them.
-    if c.speed_limit_source == SpeedLimitSource::FixedSpeedLimit && v.is_turning {
+    if c.speed_limit_source == SpeedLimitSource::FixedSpeedLimit && is_turning(net, v) {
         desired = desired.min(TURN_SPEED);
     }
     let follow =

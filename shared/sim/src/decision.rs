@@ -114,14 +114,20 @@ pub fn commits_through_yellow(
     distance < d.sudden && distance <= pickup.reach(speed, yellow_left)
 }
 
-pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) -> SpeedMode {
+/// `is_turning` is asked only when no stop point is near enough to decide:
+/// the look along the path ahead costs more than the rest of the decision.
+pub fn speed_mode(
+    distance_to_stop: f64,
+    is_turning: impl FnOnce() -> bool,
+    d: &StopDistances,
+) -> SpeedMode {
     if distance_to_stop <= d.absolute {
         SpeedMode::AbsoluteStop
     } else if distance_to_stop <= d.sudden {
         SpeedMode::SuddenStop
     } else if distance_to_stop <= d.stop {
         SpeedMode::Stop
-    } else if distance_to_stop <= d.slow_down || is_turning {
+    } else if distance_to_stop <= d.slow_down || is_turning() {
         SpeedMode::Slow
     } else {
         SpeedMode::Normal
@@ -130,10 +136,14 @@ pub fn speed_mode(distance_to_stop: f64, is_turning: bool, d: &StopDistances) ->
 
 /// The speed mode, and the stop points it was chosen from (the realistic
 /// driver model brakes for them itself).
-pub fn decide(v: &Vehicle, c: &NpcVehicleConfig) -> (SpeedMode, StopCandidates) {
+pub fn decide(
+    v: &Vehicle,
+    c: &NpcVehicleConfig,
+    is_turning: impl FnOnce() -> bool,
+) -> (SpeedMode, StopCandidates) {
     let d = StopDistances::at(v.speed, c);
     let stops = stop_candidates(v);
-    (speed_mode(stops.nearest(), v.is_turning, &d), stops)
+    (speed_mode(stops.nearest(), is_turning, &d), stops)
 }
 
 #[cfg(test)]

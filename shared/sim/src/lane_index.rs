@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::buckets::Buckets;
 use crate::conflicts::{Body, Gap, bodies_pass};
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
+use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_len, join_if};
 use crate::vehicle::Vehicle;
 
 /// One vehicle's body on one lane.
@@ -187,26 +187,25 @@ impl LaneIndex {
     pub fn rebuild(&mut self, net: &LaneNetwork, vehicles: &[Vehicle]) {
         // Items per chunk of vehicles in parallel, then joined in list order,
         // so the result does not depend on the thread count.
-        let chunk_count = vehicles.len().div_ceil(MIN_VEHICLES_PER_TASK);
+        let chunk = chunk_len(vehicles.len());
+        let chunk_count = vehicles.len().div_ceil(chunk);
         self.chunks.resize_with(chunk_count, Default::default);
         self.chunks
             .par_iter_mut()
-            .zip(vehicles.par_chunks(MIN_VEHICLES_PER_TASK))
+            .zip(vehicles.par_chunks(chunk))
             .enumerate()
-            .for_each(|(k, (chunk, some))| {
-                chunk.fill(net, some, (k * MIN_VEHICLES_PER_TASK) as u32)
-            });
+            .for_each(|(k, (items, some))| items.fill(net, some, (k * chunk) as u32));
         self.group(net, vehicles);
     }
 
-    /// One emptied item list per chunk of [`MIN_VEHICLES_PER_TASK`] of
+    /// One emptied item list per chunk ([`chunk_len`]) of
     /// `vehicle_count` vehicles, for a pass over the vehicles to fill; then
     /// [`LaneIndex::group`].
     pub fn chunk_fillers(
         &mut self,
         vehicle_count: usize,
     ) -> impl IndexedParallelIterator<Item = ChunkFiller<'_>> {
-        let chunk_count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
+        let chunk_count = vehicle_count.div_ceil(chunk_len(vehicle_count));
         self.chunks.resize_with(chunk_count, Default::default);
         self.chunks.par_iter_mut().map(|items| {
             items.clear();
@@ -244,8 +243,7 @@ impl LaneIndex {
         let id = |o: &Occupant| vehicles[o.vehicle as usize].id;
         let by_rear =
             |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then_with(|| id(a).cmp(&id(b)));
-        // More than one chunk: a world large enough for the pool.
-        let parallel = self.chunks.len() > 1;
+        let parallel = vehicles.len() >= MIN_VEHICLES_PER_TASK;
         join_if(
             parallel,
             || {

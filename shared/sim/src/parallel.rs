@@ -1,13 +1,29 @@
 //! How the tick's phases share out work: the smallest share worth a thread,
 //! and a join that stays on one thread when the world is small.
 
-/// Vehicles below which a parallel phase runs on one thread, and the share of
-/// one task above: with the other workers kept awake through the tick
-/// (`world::awake`), a share this small still pays for handing it over
-/// (Bologna's Acosta district, 400 to 700 vehicles, a quarter shorter on two
-/// threads than with 1,024; a 1,000-vehicle grid 40% more vehicle-steps per
-/// second).
-pub const MIN_VEHICLES_PER_TASK: usize = 256;
+/// Vehicles below which a tick runs on one thread: with the other workers
+/// kept awake through the tick (`world::awake`), a world this small still
+/// pays for handing work over (Bologna's Acosta district, 100 to 700
+/// vehicles: its hours of 100 to 250 vehicles went on one thread before).
+pub const MIN_VEHICLES_PER_TASK: usize = 128;
+
+/// Vehicles per chunk of a parallel pass in a world large enough for the
+/// pool: small enough that two workers end a pass of a few hundred vehicles
+/// together (chunks of 256 left one worker a third more work than the other
+/// on 400 vehicles), large enough that handing a chunk over stays cheap.
+const VEHICLES_PER_CHUNK: usize = 64;
+
+/// The chunk length of a parallel pass over `n` vehicles: one chunk, on one
+/// thread, below [`MIN_VEHICLES_PER_TASK`]. A function of `n` alone, so that
+/// the chunks, and what is joined from them in order, never depend on the
+/// thread count.
+pub fn chunk_len(n: usize) -> usize {
+    if n < MIN_VEHICLES_PER_TASK {
+        n.max(1)
+    } else {
+        VEHICLES_PER_CHUNK
+    }
+}
 
 /// `rayon::join(a, b)` when `parallel`, else `a` then `b` on this thread. A
 /// world too small for its phases to run on the pool leaves the other

@@ -199,7 +199,6 @@ pub struct Vehicle {
     pub stops_at_light: bool,
     pub yield_phase: YieldPhase,
     pub speed_mode: SpeedMode,
-    pub is_turning: bool,
     pub distance_to_front: f64,
     /// Speed of the vehicle ahead on the own path (0 for other obstacles).
     pub front_speed: f64,

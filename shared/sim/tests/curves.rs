@@ -38,7 +38,11 @@ fn slows_before_a_sharp_curve() {
     assert!(run_until(&mut w, 20.0, |w| {
         let v = vehicle(w, id);
         if slow_from_x.is_none() && v.speed_mode == SpeedMode::Slow {
-            assert!(v.is_turning, "SLOW without a curve or obstacle ahead");
+            // Alone on the road with no light: nothing but the curve slows it.
+            assert!(
+                v.distance_to_front.is_infinite() && !v.stops_at_light,
+                "SLOW with an obstacle or a light ahead"
+            );
             slow_from_x = Some(v.front.x);
         }
         v.front.x > 300.0

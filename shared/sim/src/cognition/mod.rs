@@ -47,7 +47,6 @@ pub struct Perception {
     /// Its speed along the own path: a leader's speed; 0 for a vehicle
     /// crossing the path or any other obstacle.
     pub front_speed: f64,
-    pub is_turning: bool,
     pub light_lane: Option<LaneId>,
     pub distance_to_light: f64,
     pub passability: LightColor,
@@ -88,7 +87,6 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
             .map(|k| &snap.vehicles[k as usize])
             .filter(|ahead| v.path.contains(&ahead.path[0]))
             .map_or(0.0, |ahead| ahead.speed),
-        is_turning: curve::is_turning(snap.net, v),
         light_lane: light.lane,
         distance_to_light: light.distance,
         passability: light.color,
@@ -106,7 +104,6 @@ impl Perception {
     pub fn apply(&self, v: &mut Vehicle) {
         v.distance_to_front = self.distance_to_front;
         v.front_speed = self.front_speed;
-        v.is_turning = self.is_turning;
         v.light_lane = self.light_lane;
         v.distance_to_light = self.distance_to_light;
         v.passability = self.passability;

@@ -16,7 +16,7 @@ use super::Snapshot;
 use crate::buckets::Buckets;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::MIN_VEHICLES_PER_TASK;
+use crate::parallel::chunk_len;
 use crate::vehicle::{Vehicle, VehicleId};
 
 const MIN_DISTANCE_TO_INTERSECTION: f64 = 18.0;
@@ -127,7 +127,7 @@ pub struct Member {
 #[derive(Clone, Debug, Default)]
 pub struct JunctionBuckets {
     buckets: Buckets<Member>,
-    /// (junction, member) per chunk of [`MIN_VEHICLES_PER_TASK`] vehicles,
+    /// (junction, member) per chunk ([`chunk_len`]) of vehicles,
     /// noted by the pass that takes each vehicle's [`RowInfo`], while it is at
     /// hand (kept for the allocations).
     chunks: Vec<Vec<(u32, Member)>>,
@@ -137,7 +137,7 @@ impl JunctionBuckets {
     /// One emptied member list per chunk of `vehicle_count` vehicles, for
     /// [`JunctionBuckets::note`]; then [`JunctionBuckets::group`].
     pub fn chunk_lists(&mut self, vehicle_count: usize) -> &mut [Vec<(u32, Member)>] {
-        let count = vehicle_count.div_ceil(MIN_VEHICLES_PER_TASK);
+        let count = vehicle_count.div_ceil(chunk_len(vehicle_count));
         self.chunks.resize_with(count, Vec::new);
         for list in &mut self.chunks {
             list.clear();
@@ -178,13 +178,14 @@ impl JunctionBuckets {
     /// Notes every vehicle again from `infos` and groups them: after lane
     /// changes have changed some.
     pub fn rebuild(&mut self, net: &LaneNetwork, infos: &[RowInfo]) {
+        let chunk = chunk_len(infos.len());
         self.chunk_lists(infos.len())
             .par_iter_mut()
-            .zip(infos.par_chunks(MIN_VEHICLES_PER_TASK))
+            .zip(infos.par_chunks(chunk))
             .enumerate()
             .for_each(|(k, (list, infos))| {
                 for (j, info) in infos.iter().enumerate() {
-                    Self::note(list, k * MIN_VEHICLES_PER_TASK + j, info);
+                    Self::note(list, k * chunk + j, info);
                 }
             });
         self.group(net);

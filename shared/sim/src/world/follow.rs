@@ -17,7 +17,7 @@ use crate::lane_change;
 use crate::lane_index::ChunkFiller;
 use crate::lookahead;
 use crate::network::LaneNetwork;
-use crate::parallel::MIN_VEHICLES_PER_TASK;
+use crate::parallel::chunk_len;
 use crate::vehicle::{Vehicle, VehicleId};
 
 impl World {
@@ -30,6 +30,7 @@ impl World {
     /// left. Returns the indices of the vehicles flagged for despawn, ascending.
     pub(super) fn follow_lanes(&mut self) -> Vec<usize> {
         let n = self.vehicles.len();
+        let chunk = chunk_len(n);
         self.row.resize(n, RowInfo::default());
         let follow = Follow {
             net: &self.net,
@@ -52,8 +53,8 @@ impl World {
             }
             None => self
                 .vehicles
-                .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-                .zip(self.row.par_chunks_mut(MIN_VEHICLES_PER_TASK))
+                .par_chunks_mut(chunk)
+                .zip(self.row.par_chunks_mut(chunk))
                 .zip(self.junctions.chunk_lists(n))
                 .zip(self.index.chunk_fillers(n))
                 .enumerate()
@@ -64,7 +65,7 @@ impl World {
                         for (k, row) in rows.iter_mut().enumerate() {
                             lookahead::paths_ahead(follow.net, vehicles, k);
                             lookahead::conflicts_ahead(follow.net, vehicles, k);
-                            let i = c * MIN_VEHICLES_PER_TASK + k;
+                            let i = c * chunk + k;
                             let lists = (row, &mut *junction_list, &mut index_items);
                             follow.vehicle(&mut vehicles[k], i, lists, &mut followed);
                         }

@@ -9,16 +9,17 @@ use super::World;
 use super::follow::{Follow, Followed};
 use super::red_lights::{RedLightCrossing, crossed_on_red};
 use crate::cognition::Perception;
+use crate::cognition::curve::is_turning;
 use crate::cognition::right_of_way::RowInfo;
 use crate::control::{speed_limit, step_speed, update_pose};
 use crate::decision::decide;
 use crate::lights::Lights;
 use crate::lookahead;
 use crate::network::LaneNetwork;
+use crate::parallel::chunk_len;
 use crate::trajectory::pose_digest;
 use crate::vehicle::Vehicle;
 use crate::visualization::update_trip;
-use crate::world::MIN_VEHICLES_PER_TASK;
 
 impl World {
     /// Moves every vehicle by its perception and returns the sum of the
@@ -38,12 +39,11 @@ impl World {
         // will have once those leaving at the end of this tick are gone.
         let n = self.vehicles.len();
         let staying = n - leaving.len();
-        let chunk_count = n.div_ceil(MIN_VEHICLES_PER_TASK);
-        let mut kept: Vec<usize> = (0..chunk_count)
-            .map(|c| MIN_VEHICLES_PER_TASK.min(n - c * MIN_VEHICLES_PER_TASK))
-            .collect();
+        let chunk = chunk_len(n);
+        let chunk_count = n.div_ceil(chunk);
+        let mut kept: Vec<usize> = (0..chunk_count).map(|c| chunk.min(n - c * chunk)).collect();
         for &i in leaving {
-            kept[i / MIN_VEHICLES_PER_TASK] -= 1;
+            kept[i / chunk] -= 1;
         }
         // Each chunk's stayers: where they start in the list that remains,
         // and their rows there.
@@ -64,8 +64,8 @@ impl World {
         // Takes the trajectory digests of the vehicles that stay on the way.
         let chunks: Vec<(u64, Followed, Vec<RedLightCrossing>)> = self
             .vehicles
-            .par_chunks_mut(MIN_VEHICLES_PER_TASK)
-            .zip(perceptions.par_chunks(MIN_VEHICLES_PER_TASK))
+            .par_chunks_mut(chunk)
+            .zip(perceptions.par_chunks(chunk))
             .zip(stayers)
             .zip(self.junctions.chunk_lists(n))
             .zip(self.index.chunk_fillers(n))
@@ -128,7 +128,7 @@ fn move_vehicle(
         return None;
     }
     let s_before = v.s;
-    let (mode, stops) = decide(v, config);
+    let (mode, stops) = decide(v, config, || is_turning(net, v));
     v.speed_mode = mode;
     // One lookup of the lane's limit for the speed step and the trip's time loss.
     let limit = speed_limit(net, v, config);

@@ -7,7 +7,7 @@
 //! the same with or without it.
 
 use super::World;
-use crate::parallel::MIN_VEHICLES_PER_TASK;
+use crate::parallel::chunk_len;
 use rayon::prelude::*;
 
 /// Ticks between regroupings: a vehicle changes lanes every few seconds, so
@@ -34,7 +34,7 @@ impl World {
         let mut keys: Vec<u64> = self
             .vehicles
             .par_iter()
-            .with_min_len(MIN_VEHICLES_PER_TASK)
+            .with_min_len(chunk_len(self.vehicles.len()))
             .enumerate()
             .map(|(i, v)| (u64::from(v.path[0]) << 32) | i as u64)
             .collect();

@@ -259,7 +259,6 @@ impl World {
                 index: 0,
                 leave_at_end: r.leave_at_end,
             }),
-            is_turning: false,
             distance_to_front: f64::INFINITY,
             front_speed: 0.0,
             light_lane: None,

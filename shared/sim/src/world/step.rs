@@ -14,7 +14,7 @@ use crate::lane_change;
 use crate::lane_choice;
 use crate::lookahead;
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::{MIN_VEHICLES_PER_TASK, join_if};
+use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_len, join_if};
 use crate::vehicle::Vehicle;
 
 pub(super) fn trip_record(
@@ -132,7 +132,10 @@ impl World {
             .filter_map(|&i| lane_change::plan(net, index, vehicles, i as usize, &motion))
             .collect();
         let looking = lane_choice::Looking::at(self.ticks, self.config.dt);
+        // Every vehicle is asked: on the pool, in list order.
         let mut choices: Vec<lane_choice::Choice> = (0..vehicles.len())
+            .into_par_iter()
+            .with_min_len(chunk_len(vehicles.len()))
             .filter_map(|i| lane_choice::choose(net, index, vehicles, i, &motion, looking))
             .collect();
         if candidates.is_empty() && choices.is_empty() {
@@ -200,7 +203,7 @@ impl World {
             waits
                 .par_iter_mut()
                 .enumerate()
-                .with_min_len(MIN_VEHICLES_PER_TASK)
+                .with_min_len(chunk_len(self.vehicles.len()))
                 .map(|(i, wait)| {
                     lookahead::cognition_ahead(snap.net, snap.vehicles, snap.index, i);
                     let p = perceive(&snap, i);
@@ -335,7 +338,7 @@ mod tests {
     fn junction_members_beyond_the_first_chunk(world: &World) -> bool {
         (0..world.net.junction_count)
             .flat_map(|j| world.junctions.of(Some(j)))
-            .any(|m| m.index as usize >= MIN_VEHICLES_PER_TASK)
+            .any(|m| m.index as usize >= chunk_len(world.vehicles.len()))
     }
 
     fn assert_the_index_and_junctions_match_a_rebuild(world: &mut World) {
