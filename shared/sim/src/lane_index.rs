@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::buckets::Buckets;
 use crate::conflicts::{Body, Gap, bodies_pass};
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_len, join_if};
+use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_count, chunk_len, join_if};
 use crate::vehicle::Vehicle;
 
 /// One vehicle's body on one lane.
@@ -188,8 +188,8 @@ impl LaneIndex {
         // Items per chunk of vehicles in parallel, then joined in list order,
         // so the result does not depend on the thread count.
         let chunk = chunk_len(vehicles.len());
-        let chunk_count = vehicles.len().div_ceil(chunk);
-        self.chunks.resize_with(chunk_count, Default::default);
+        self.chunks
+            .resize_with(chunk_count(vehicles.len()), Default::default);
         self.chunks
             .par_iter_mut()
             .zip(vehicles.par_chunks(chunk))
@@ -205,8 +205,8 @@ impl LaneIndex {
         &mut self,
         vehicle_count: usize,
     ) -> impl IndexedParallelIterator<Item = ChunkFiller<'_>> {
-        let chunk_count = vehicle_count.div_ceil(chunk_len(vehicle_count));
-        self.chunks.resize_with(chunk_count, Default::default);
+        self.chunks
+            .resize_with(chunk_count(vehicle_count), Default::default);
         self.chunks.par_iter_mut().map(|items| {
             items.clear();
             ChunkFiller { items }

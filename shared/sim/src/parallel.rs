@@ -25,6 +25,11 @@ pub fn chunk_len(n: usize) -> usize {
     }
 }
 
+/// How many chunks of [`chunk_len`] a pass over `n` vehicles has.
+pub fn chunk_count(n: usize) -> usize {
+    n.div_ceil(chunk_len(n))
+}
+
 /// `rayon::join(a, b)` when `parallel`, else `a` then `b` on this thread. A
 /// world too small for its phases to run on the pool leaves the other
 /// workers asleep (see [`crate::World::step`]), and a join would wake one

@@ -324,8 +324,9 @@ impl Search<'_, '_> {
     /// there would block the other lane's traffic, which may be what the
     /// body we wait for waits for. Where a body of ours at the obstacle
     /// would reach into such a zone, the obstacle moves back to the zone's
-    /// start; the zones are taken from the farthest ahead back, so that an
-    /// obstacle moved back into an earlier one moves again, before that one.
+    /// start; the zones are taken from the farthest ahead back (they are
+    /// found in path order), so that an obstacle moved back into an earlier
+    /// one moves again, before that one.
     fn clear_of_road_crossings(&self, stop_at: f64) -> f64 {
         let (net, v) = (self.snap.net, self.v);
         let ours = v.body(0.0);
@@ -349,8 +350,7 @@ impl Search<'_, '_> {
             }
         }
         let mut stop = stop_at;
-        zones.sort_unstable_by(|x, y| y.0.total_cmp(&x.0));
-        for (z0, z1) in zones {
+        for &(z0, z1) in zones.iter().rev() {
             if z0 < stop && z1 > stop - v.length {
                 stop = z0;
             }

@@ -16,7 +16,7 @@ use super::Snapshot;
 use crate::buckets::Buckets;
 use crate::geometry::{angle_between, cross};
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::chunk_len;
+use crate::parallel::{chunk_count, chunk_len};
 use crate::vehicle::{Vehicle, VehicleId};
 
 const MIN_DISTANCE_TO_INTERSECTION: f64 = 18.0;
@@ -137,8 +137,8 @@ impl JunctionBuckets {
     /// One emptied member list per chunk of `vehicle_count` vehicles, for
     /// [`JunctionBuckets::note`]; then [`JunctionBuckets::group`].
     pub fn chunk_lists(&mut self, vehicle_count: usize) -> &mut [Vec<(u32, Member)>] {
-        let count = vehicle_count.div_ceil(chunk_len(vehicle_count));
-        self.chunks.resize_with(count, Vec::new);
+        self.chunks
+            .resize_with(chunk_count(vehicle_count), Vec::new);
         for list in &mut self.chunks {
             list.clear();
         }

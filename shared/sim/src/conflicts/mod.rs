@@ -128,8 +128,8 @@ fn close_intervals(
     let len = a.length();
     let n = (len / SAMPLE_STEP).ceil().max(1.0) as usize;
     let mut out = Vec::new();
-    // (start, least room, the gap there)
-    let mut open: Option<(f64, f64, Gap)> = None;
+    // (start, the gap where the room is least)
+    let mut open: Option<(f64, Gap)> = None;
     for k in 0..=n {
         let s = (k as f64 * SAMPLE_STEP).min(len);
         let p = a.line.point_at(s).0;
@@ -148,21 +148,20 @@ fn close_intervals(
         } else {
             (CONFLICT_DISTANCE, Gap::default())
         };
-        let room = gap.room();
         let apart = link.is_none_or(|l| l.along(len, b.length(), s, t) > distance + JOINT_SLACK);
         let close = apart && distance < reach;
         open = match (close, open) {
-            (true, None) => Some((s, room, gap)),
-            (true, Some((s0, least, _))) if room < least => Some((s0, room, gap)),
+            (true, None) => Some((s, gap)),
+            (true, Some((s0, least))) if gap.room() < least.room() => Some((s0, gap)),
             (true, kept) => kept,
-            (false, Some((s0, _, gap))) => {
+            (false, Some((s0, gap))) => {
                 out.push((s0, s, gap));
                 None
             }
             (false, None) => None,
         };
     }
-    if let Some((s0, _, gap)) = open {
+    if let Some((s0, gap)) = open {
         out.push((s0, len, gap));
     }
     out

@@ -16,7 +16,7 @@ use crate::decision::decide;
 use crate::lights::Lights;
 use crate::lookahead;
 use crate::network::LaneNetwork;
-use crate::parallel::chunk_len;
+use crate::parallel::{chunk_count, chunk_len};
 use crate::trajectory::pose_digest;
 use crate::vehicle::Vehicle;
 use crate::visualization::update_trip;
@@ -40,14 +40,14 @@ impl World {
         let n = self.vehicles.len();
         let staying = n - leaving.len();
         let chunk = chunk_len(n);
-        let chunk_count = n.div_ceil(chunk);
-        let mut kept: Vec<usize> = (0..chunk_count).map(|c| chunk.min(n - c * chunk)).collect();
+        let chunks = chunk_count(n);
+        let mut kept: Vec<usize> = (0..chunks).map(|c| chunk.min(n - c * chunk)).collect();
         for &i in leaving {
             kept[i / chunk] -= 1;
         }
         // Each chunk's stayers: where they start in the list that remains,
         // and their rows there.
-        let mut stayers = Vec::with_capacity(chunk_count);
+        let mut stayers = Vec::with_capacity(chunks);
         let mut rows_left: &mut [RowInfo] = &mut self.row[..staying];
         for count in kept {
             let start = staying - rows_left.len();
