@@ -93,6 +93,21 @@ pub fn step_speed(
     v.trip.distance += v.speed * dt;
 }
 
+/// Holds the tick's travel (from `s_before`) to `cap`, the furthest the
+/// vehicle may drive short of a body in its way, at the speed that covers it.
+pub fn cap_travel(v: &mut Vehicle, s_before: f64, cap: f64, dt: f64) {
+    let travelled = v.s - s_before;
+    if travelled <= cap {
+        return;
+    }
+    let cap = cap.max(0.0);
+    let speed_before = v.speed - v.acceleration * dt;
+    v.s = s_before + cap;
+    v.speed = cap / dt;
+    v.acceleration = (v.speed - speed_before) / dt;
+    v.trip.distance -= travelled - cap;
+}
+
 /// The IDM's next speed toward `desired`: the lower acceleration of
 /// following the body ahead and stopping at the nearest stop line (light,
 /// yield point, zebra) that the reference's rules say to stop at, braking no

@@ -248,6 +248,59 @@ fn extent(poly: &[DVec2; 4], axis: DVec2) -> (f64, f64) {
         })
 }
 
+/// An oriented box: a centre, the unit axis along its length, and half its
+/// length and width.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Obb {
+    pub centre: DVec2,
+    pub axis: DVec2,
+    pub half_length: f64,
+    pub half_width: f64,
+}
+
+impl Obb {
+    pub fn corners(&self) -> [DVec2; 4] {
+        let (f, l) = (
+            self.axis * self.half_length,
+            self.axis.perp() * self.half_width,
+        );
+        let c = self.centre;
+        [c + f + l, c + f - l, c - f - l, c - f + l]
+    }
+
+    /// The box lengthened by `ahead` metres at its front.
+    pub fn stretched(&self, ahead: f64) -> Obb {
+        Obb {
+            centre: self.centre + self.axis * (0.5 * ahead),
+            half_length: self.half_length + 0.5 * ahead,
+            ..*self
+        }
+    }
+
+    /// Its half extent along `axis` (a unit vector).
+    pub fn half_shadow(&self, axis: DVec2) -> f64 {
+        self.half_length * self.axis.dot(axis).abs()
+            + self.half_width * self.axis.perp().dot(axis).abs()
+    }
+
+    /// Signed separation of two boxes: the widest gap between their
+    /// shadows on the four axes. Positive: they lie at least that far apart.
+    /// Zero or negative: they touch or overlap, about that deep.
+    pub fn separation(&self, other: &Obb) -> f64 {
+        let d = other.centre - self.centre;
+        [self.axis, self.axis.perp(), other.axis, other.axis.perp()]
+            .into_iter()
+            .map(|axis| d.dot(axis).abs() - self.half_shadow(axis) - other.half_shadow(axis))
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// The smallest and largest corner of its axis-aligned bounds.
+    pub fn bounds(&self) -> (DVec2, DVec2) {
+        let half = DVec2::new(self.half_shadow(DVec2::X), self.half_shadow(DVec2::Y));
+        (self.centre - half, self.centre + half)
+    }
+}
+
 /// Whether two simple polygons (convex or not) overlap: an edge crossing or
 /// one holding a vertex of the other.
 pub fn polygons_overlap(a: &[DVec2], b: &[DVec2]) -> bool {

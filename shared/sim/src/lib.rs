@@ -9,6 +9,7 @@
 //! give bit-identical trajectories whatever the thread count: cognition reads an
 //! immutable snapshot in parallel, randomness comes from per-entity seeded streams.
 
+mod body_grid;
 pub mod branching;
 mod buckets;
 mod cognition;

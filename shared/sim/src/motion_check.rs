@@ -24,7 +24,7 @@ pub const YAW_SLACK: f64 = 0.01;
 /// Metres per second over the limit that count as speeding.
 pub const SPEED_SLACK: f64 = 0.01;
 /// Footprints are shrunk by this on every side before the overlap test.
-pub const OVERLAP_MARGIN: f64 = 0.1;
+pub const OVERLAP_MARGIN: f64 = crate::vehicle::BODY_TOLERANCE;
 /// Examples kept of each kind of finding.
 const EXAMPLES: usize = 5;
 

@@ -29,7 +29,7 @@ use crate::vehicle::{Sideways, Vehicle};
 
 /// The drawn heading turns by at most the distance driven over this, metres:
 /// a little wider than the tightest turn a car makes (4 m at the rear axle).
-const TURN_RADIUS: f64 = 4.5;
+pub(crate) const TURN_RADIUS: f64 = 4.5;
 /// A lane change's tightest curve, metres (at low speed).
 const LANE_CHANGE_RADIUS: f64 = 5.0;
 /// A lane change's sideways acceleration at speed, m/s²: a comfortable one.

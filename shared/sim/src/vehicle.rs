@@ -250,6 +250,11 @@ pub struct Vehicle {
     pub trip: TripStats,
 }
 
+/// Bodies overlap when their footprints shrunk by this on every side do,
+/// metres: the centreline model approximates a rigid body on curves to a few
+/// centimetres.
+pub const BODY_TOLERANCE: f64 = 0.1;
+
 impl Vehicle {
     /// The body as published (the pose's box), shrunk by `margin` on every
     /// side: the centreline model approximates a rigid body on curves to a

@@ -20,6 +20,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         &[
             "vehicle",
             "lane_index",
+            "body_grid",
             "lookahead",
             "branching",
             "ego",

@@ -3,6 +3,7 @@
 //! result depends neither on thread count nor on the vehicles' order in the
 //! world's list (where the order could decide, as between level bodies, ids do).
 
+pub mod clearance;
 pub mod curve;
 pub mod deadlock;
 pub mod light;
@@ -13,6 +14,7 @@ pub mod right_of_way;
 use glam::DVec2;
 use trafficmesh_model::{LightColor, NpcVehicleConfig, YieldPhase};
 
+use crate::body_grid::BodyGrid;
 use crate::crosswalk::{Occupancy, try_get_blocked_stop};
 use crate::ego::Ego;
 use crate::lane_index::LaneIndex;
@@ -36,6 +38,7 @@ pub struct Snapshot<'a> {
     pub config: &'a NpcVehicleConfig,
     pub row: &'a [RowInfo],
     pub junctions: &'a JunctionBuckets,
+    pub bodies: &'a BodyGrid,
 }
 
 /// Cognition's output for one vehicle; written back before the Decision step.
@@ -58,6 +61,9 @@ pub struct Perception {
     /// Deadlock breaking let the vehicle through this junction.
     pub forced_through: Option<u32>,
     pub zebra: ZebraState,
+    /// The furthest the vehicle may drive this tick: short of a body in its
+    /// way ([`clearance`]); infinite when none is.
+    pub travel_cap: f64,
 }
 
 /// Cognition for vehicle `i`.
@@ -79,14 +85,30 @@ pub fn perceive(snap: &Snapshot, i: usize) -> Perception {
             },
         };
     let front = obstacles::front_obstacle(snap, i);
+    let leader = front
+        .vehicle
+        .map(|k| &snap.vehicles[k as usize])
+        .filter(|ahead| v.path.contains(&ahead.path[0]));
+    let blocked = clearance::blocked(snap, i);
+    // A body in the way nearer than the obstacle in front stands in for it;
+    // following the leader on the path goes on (the travel stays capped).
+    let (distance_to_front, front_vehicle, front_speed) = match blocked {
+        Some(b)
+            if b.travel < front.distance && (leader.is_none() || front.vehicle != Some(b.by)) =>
+        {
+            (b.travel, Some(b.by), 0.0)
+        }
+        _ => (
+            front.distance,
+            front.vehicle,
+            leader.map_or(0.0, |ahead| ahead.speed),
+        ),
+    };
     Perception {
-        distance_to_front: front.distance,
-        front_vehicle: front.vehicle,
-        front_speed: front
-            .vehicle
-            .map(|k| &snap.vehicles[k as usize])
-            .filter(|ahead| v.path.contains(&ahead.path[0]))
-            .map_or(0.0, |ahead| ahead.speed),
+        distance_to_front,
+        front_vehicle,
+        front_speed,
+        travel_cap: blocked.map_or(f64::INFINITY, |b| b.travel),
         light_lane: light.lane,
         distance_to_light: light.distance,
         passability: light.color,

@@ -17,6 +17,7 @@ use glam::{DVec2, DVec3};
 use thiserror::Error;
 use trafficmesh_model::{NpcVehicleConfig, SpawnConfigError, TrafficSpawnConfig};
 
+use crate::body_grid::BodyGrid;
 use crate::branching::{BranchChoice, BranchPolicy, BranchStats};
 use crate::cognition::Perception;
 use crate::cognition::deadlock::Wait;
@@ -120,6 +121,8 @@ pub struct World {
     perceptions: Vec<Perception>,
     waits: Vec<Wait>,
     index: LaneIndex,
+    /// Every body by place, for the clearance check (kept for the allocations).
+    bodies: BodyGrid,
     lights: Lights,
     occupancy: Occupancy,
     /// Some vehicle was stopped by a crosswalk after the last tick's cognition.
@@ -173,6 +176,7 @@ impl World {
             perceptions: Vec::new(),
             waits: Vec::new(),
             index,
+            bodies: BodyGrid::default(),
             lights,
             occupancy,
             zebra_blocked_last_tick: false,

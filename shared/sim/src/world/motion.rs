@@ -11,7 +11,7 @@ use super::red_lights::{RedLightCrossing, crossed_on_red};
 use crate::cognition::Perception;
 use crate::cognition::curve::is_turning;
 use crate::cognition::right_of_way::RowInfo;
-use crate::control::{speed_limit, step_speed, update_pose};
+use crate::control::{cap_travel, speed_limit, step_speed, update_pose};
 use crate::decision::decide;
 use crate::lights::Lights;
 use crate::lookahead;
@@ -133,6 +133,7 @@ fn move_vehicle(
     // One lookup of the lane's limit for the speed step and the trip's time loss.
     let limit = speed_limit(net, v, config);
     step_speed(net, v, config, &stops, limit, dt);
+    cap_travel(v, s_before, p.travel_cap, dt);
     update_pose(net, v, v.s - s_before);
     update_trip(v, dt, limit);
     crossed_on_red(net, lights, time, v, s_before)

@@ -3,18 +3,21 @@
 //! regrouping the list (`regroup.rs`).
 
 use rayon::prelude::*;
+use trafficmesh_model::{DriverModel, NpcVehicleConfig};
 
 use super::World;
 use super::awake::with_workers_awake;
 use super::phases::Phase;
 use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
+use crate::control::driver_model;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
 use crate::lane_choice;
 use crate::lookahead;
 use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_len, join_if};
+use crate::pose::TURN_RADIUS;
 use crate::vehicle::Vehicle;
 
 pub(super) fn trip_record(
@@ -48,6 +51,16 @@ pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
 }
 
+/// How far a vehicle can drive this tick (at its driver model's highest
+/// acceleration).
+fn reach(net: &LaneNetwork, c: &NpcVehicleConfig, v: &Vehicle, dt: f64) -> f64 {
+    let accel = match driver_model(net, v, c) {
+        DriverModel::Awsim => c.acceleration,
+        DriverModel::Realistic(idm) => idm.accel,
+    };
+    (v.speed + accel * dt) * dt
+}
+
 impl World {
     /// Advances the world by one tick of `config.dt` seconds.
     pub fn step(&mut self) {
@@ -77,11 +90,15 @@ impl World {
         // grouping runs beside the lane index's.
         let parallel = self.vehicles.len() >= MIN_VEHICLES_PER_TASK;
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
-        let vehicles = &self.vehicles;
+        let (vehicles, bodies) = (&self.vehicles, &mut self.bodies);
+        let (motion, dt) = (&self.config.vehicle, dt);
         join_if(
             parallel,
             || index.group(net, vehicles),
-            || junctions.group(net),
+            || {
+                junctions.group(net);
+                bodies.rebuild(vehicles, |v| reach(net, motion, v, dt), TURN_RADIUS);
+            },
         );
         self.phase_times.lap(Phase::LaneIndex);
         if self.change_lanes() {
@@ -193,6 +210,7 @@ impl World {
             config: &self.config.vehicle,
             row,
             junctions: &self.junctions,
+            bodies: &self.bodies,
         };
         // The waits are written beside, not paired with, the perceptions: a
         // pair would copy each perception twice more.

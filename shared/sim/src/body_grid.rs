@@ -1,0 +1,159 @@
+//! The vehicles' bodies as drawn (the published boxes, as the overlap check
+//! reads them: shrunk by [`BODY_TOLERANCE`]), found by place: a
+//! grid of square cells, each body noted in every cell its bounds touch
+//! (with the ground it can cover this tick). Rebuilt every tick from the
+//! snapshot, for the clearance check (`cognition::clearance`).
+
+use glam::DVec2;
+use rayon::prelude::*;
+
+use crate::buckets::Buckets;
+use crate::geometry::Obb;
+use crate::parallel::chunk_len;
+use crate::vehicle::{BODY_TOLERANCE, Vehicle, VehicleId};
+
+/// One body: where it is, and how far it may go this tick.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct BodyBox {
+    pub obb: Obb,
+    pub z: f64,
+    /// The furthest it can drive this tick, metres.
+    pub reach: f64,
+    /// How far a corner of the body can move this tick: its travel and what
+    /// its turn (no sharper than a car's) swings it, metres.
+    pub swing: f64,
+    pub id: VehicleId,
+}
+
+/// A body noted in the cell of its bounds' lowest corner: its bounds (with
+/// the ground its corners can cover this tick) beside its index, so that a
+/// query reads the cell's list alone.
+#[derive(Clone, Copy, Debug, Default)]
+struct Noted {
+    index: u32,
+    lo: DVec2,
+    hi: DVec2,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct BodyGrid {
+    boxes: Vec<BodyBox>,
+    cells: Buckets<Noted>,
+    /// (cell key, body), kept for the allocation.
+    items: Vec<(u32, Noted)>,
+    /// Cell keys are hashed into this many buckets (a power of two).
+    key_count: usize,
+    /// The widest bounds of any body, on each axis: a query looks this much
+    /// further back for the cells where bodies reaching into it are noted.
+    widest: DVec2,
+}
+
+/// A cell's side, metres: about a bus's length.
+const CELL: f64 = 12.0;
+
+impl BodyGrid {
+    /// Takes every vehicle's body; `reach` gives how far a vehicle can
+    /// drive this tick, and its drawn heading turns by at most the distance
+    /// driven over `turn_radius`.
+    pub fn rebuild(
+        &mut self,
+        vehicles: &[Vehicle],
+        reach: impl Fn(&Vehicle) -> f64 + Sync,
+        turn_radius: f64,
+    ) {
+        self.boxes.clear();
+        self.boxes.par_extend(
+            vehicles
+                .par_iter()
+                .with_min_len(chunk_len(vehicles.len()))
+                .map(|v| {
+                    // Nearly always the body is drawn along its chord: no
+                    // sines for its axis then.
+                    let axis = if v.pose.yaw == v.body_yaw {
+                        v.heading
+                    } else {
+                        DVec2::from_angle(v.pose.yaw)
+                    };
+                    let origin = DVec2::new(v.pose.x, v.pose.y);
+                    // The footprint the overlap check reads (`sim --check`).
+                    let (half_length, half_width) = (
+                        0.5 * v.length - BODY_TOLERANCE,
+                        0.5 * v.width - BODY_TOLERANCE,
+                    );
+                    let reach = reach(v);
+                    BodyBox {
+                        obb: Obb {
+                            centre: origin + axis * (v.front_offset - 0.5 * v.length),
+                            axis,
+                            half_length,
+                            half_width,
+                        },
+                        z: v.pose.z,
+                        reach,
+                        swing: reach * (1.0 + half_length.hypot(half_width) / turn_radius),
+                        id: v.id,
+                    }
+                }),
+        );
+        self.key_count = (2 * self.boxes.len()).next_power_of_two().max(64);
+        self.items.clear();
+        self.widest = DVec2::ZERO;
+        for (i, b) in self.boxes.iter().enumerate() {
+            let (lo, hi) = b.obb.bounds();
+            let (lo, hi) = (lo - DVec2::splat(b.swing), hi + DVec2::splat(b.swing));
+            self.widest = self.widest.max(hi - lo);
+            let (cx, cy) = cell_of(lo);
+            let noted = Noted {
+                index: i as u32,
+                lo,
+                hi,
+            };
+            self.items.push((self.key(cx, cy), noted));
+        }
+        self.cells.rebuild(self.key_count, &self.items);
+    }
+
+    pub fn body(&self, i: usize) -> &BodyBox {
+        &self.boxes[i]
+    }
+
+    /// Calls `f` once with each vehicle whose bounds (with its swing) meet
+    /// the box from `lo` to `hi`.
+    pub fn for_each_near(&self, lo: DVec2, hi: DVec2, mut f: impl FnMut(u32)) {
+        let ((x0, y0), (x1, y1)) = (cell_of(lo - self.widest), cell_of(hi));
+        for cx in x0..=x1 {
+            for cy in y0..=y1 {
+                for b in self.cells.get(self.key(cx, cy)) {
+                    let meets =
+                        b.lo.x <= hi.x && b.lo.y <= hi.y && b.hi.x >= lo.x && b.hi.y >= lo.y;
+                    // A key another cell shares holds that cell's bodies too.
+                    if meets && cell_of(b.lo) == (cx, cy) {
+                        f(b.index);
+                    }
+                }
+            }
+        }
+    }
+
+    fn key(&self, cx: i64, cy: i64) -> u32 {
+        let h = (cx as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ (cy as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f);
+        (h.rotate_left(23) & (self.key_count as u64 - 1)) as u32
+    }
+}
+
+fn cell_of(p: DVec2) -> (i64, i64) {
+    (cell_coordinate(p.x), cell_coordinate(p.y))
+}
+
+/// `floor(x / CELL)`, without the library call `f64::floor` is on the
+/// baseline x86-64 target (no SSE4.1 rounding instruction).
+fn cell_coordinate(x: f64) -> i64 {
+    let q = x * (1.0 / CELL);
+    let t = q as i64;
+    t - i64::from((t as f64) > q)
+}
+
+/// How near a body may come to another before the one moving stops: the
+/// clearance kept, metres.
+pub const MARGIN: f64 = 0.15;

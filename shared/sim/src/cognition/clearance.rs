@@ -1,0 +1,259 @@
+//! The last check before a move: no body drives into another. The rules
+//! (lanes, lights, right of way, the vehicle in front) keep bodies apart
+//! where the map's lanes meet as they are drawn; where they do not (a bus
+//! sweeping the inside of a tight turn, a merge whose approaches lie in two
+//! junctions, a body left across a lane by a yield given too late), this
+//! stops the vehicle short of the body in its way, as a driver would brake
+//! for an obstacle no rule told them of.
+//!
+//! The way a vehicle will drive this tick is the ground its body sweeps from
+//! where it is to where its furthest travel takes it along its path. A body
+//! in that ground stops the vehicle where the sweep still keeps clear of it
+//! (or, already nearer, comes no nearer), and stands in for the obstacle in
+//! front when it is nearer. Of two vehicles moving into the same ground,
+//! the one behind keeps [`MARGIN`] clear of the ground the one ahead can
+//! cover this tick, so that the two never both stop for each other nor both
+//! go. Vehicles on the open road, clear of junctions and lane changes, are
+//! not checked (following keeps them apart), but are bodies the others see.
+
+use glam::DVec2;
+
+use super::Snapshot;
+use super::path::point_on_path;
+use crate::body_grid::{BodyBox, MARGIN};
+use crate::geometry::Obb;
+use crate::vehicle::Vehicle;
+
+/// A body in the vehicle's way.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Blocked {
+    /// How far the vehicle may drive before it comes nearer than the
+    /// clearance kept, metres.
+    pub travel: f64,
+    /// The vehicle whose body is in the way (an index).
+    pub by: u32,
+}
+
+/// Bodies at different heights (a bridge over a road) never meet, metres.
+const LEVELS_APART: f64 = 3.0;
+/// Two headings whose sum is shorter than this (squared) point against each
+/// other (more than about 150 degrees apart): no way both are going.
+const HEADING_AGAINST: f64 = 0.25;
+/// Fronts this near along the shared way are level, metres (scaled by the
+/// way's length, under 2).
+const LEVEL: f64 = 0.05;
+/// Within this of a junction, before or after it, a body is checked,
+/// metres: room for a bus's swing and a body standing across an exit.
+const JUNCTION_APPROACH: f64 = 10.0;
+/// A body this far behind the rear is left behind, metres.
+const BEHIND: f64 = 1.0;
+/// Halvings of the lookahead to find where the way first comes too near.
+const BISECTIONS: usize = 5;
+/// Rounding slack on the clearance, metres.
+const SLACK: f64 = 1e-6;
+
+/// The nearest body in the way of vehicle `i`.
+pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
+    let v = &snap.vehicles[i];
+    let own = snap.bodies.body(i);
+    if on_open_road(snap, v, own) {
+        return None;
+    }
+    let reach_out = own.swing + MARGIN;
+    let (lo, hi) = own.obb.bounds();
+    let rear = own.obb.centre.dot(own.obb.axis) - own.obb.half_length - BEHIND;
+    let body = Shape::body(&own.obb);
+    let mut sweep: Option<Shape> = None;
+    let mut nearest: Option<(Blocked, u64)> = None;
+    let out = DVec2::splat(reach_out);
+    snap.bodies.for_each_near(lo - out, hi + out, |j| {
+        if j as usize == i {
+            return;
+        }
+        let other = snap.bodies.body(j as usize);
+        // The other goes first: we keep clear of the ground it can cover
+        // this tick.
+        let first = goes_first(other, own);
+        let other_swing = if first { other.swing } else { 0.0 };
+        // Out of reach, at another level, or wholly behind (driving on
+        // only leaves it further behind).
+        let behind =
+            other.obb.centre.dot(own.obb.axis) + other.obb.half_shadow(own.obb.axis) + other_swing
+                < rear;
+        if behind
+            || (own.z - other.z).abs() > LEVELS_APART
+            || own.obb.separation(&other.obb) > reach_out + other_swing
+        {
+            return;
+        }
+        let obstacle = if first {
+            Shape::swept(snap, &snap.vehicles[j as usize], other, other.reach)
+        } else {
+            Shape::body(&other.obb)
+        };
+        let now = body.gap(&obstacle);
+        if now > reach_out {
+            return;
+        }
+        // The one behind keeps a margin (room for the other's way to swing
+        // beyond what a tick's travel shows; none for a body standing
+        // still), the one ahead only keeps off.
+        let margin = if first { MARGIN.min(other.swing) } else { 0.0 };
+        let keep = now.min(margin) - SLACK;
+        let sweep = sweep.get_or_insert_with(|| Shape::swept(snap, v, own, own.reach));
+        if sweep.keeps(&obstacle, keep) {
+            return;
+        }
+        let travel = clear_travel(snap, v, own, &obstacle, keep);
+        let better = nearest.is_none_or(|(b, id)| (travel, other.id) < (b.travel, id));
+        if better {
+            nearest = Some((Blocked { travel, by: j }, other.id));
+        }
+    });
+    nearest.map(|(b, _)| b)
+}
+
+/// Whether the whole body drives along one plain lane, clear of junctions
+/// and of a lane change: where following, lane changes and spawning keep
+/// bodies apart by themselves (bodies meet where ways join, cross or run
+/// close, which is in and by junctions and across lanes).
+fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
+    let net = snap.net;
+    let clear_ahead = v
+        .first_junction_lane
+        .is_none_or(|j| j.start - v.s > own.swing + JUNCTION_APPROACH);
+    let clear_behind = v.s > v.length + JUNCTION_APPROACH
+        || v.behind.latest().is_none_or(|l| !net.lane(l).intersection);
+    !net.lane(v.path[0]).intersection
+        && clear_ahead
+        && clear_behind
+        && v.sideways.offset == 0.0
+        && v.shadow.is_none()
+}
+
+/// Of two bodies, `a` goes before `b`: its front is further along the way
+/// both are heading (the one that reached the ground they share first), or,
+/// level or heading against each other, its id is lower. Antisymmetric, so
+/// that of two bodies exactly one keeps clear of the other's sweep.
+fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
+    let way = a.obb.axis + b.obb.axis;
+    if way.length_squared() > HEADING_AGAINST {
+        let front = |x: &BodyBox| (x.obb.centre + x.obb.axis * x.obb.half_length).dot(way);
+        let (fa, fb) = (front(a), front(b));
+        if (fa - fb).abs() > LEVEL {
+            return fa > fb;
+        }
+    }
+    a.id < b.id
+}
+
+/// The furthest travel whose sweep keeps `keep` from `obstacle`.
+fn clear_travel(snap: &Snapshot, v: &Vehicle, own: &BodyBox, obstacle: &Shape, keep: f64) -> f64 {
+    let (mut clear, mut blocked) = (0.0, own.reach);
+    for _ in 0..BISECTIONS {
+        let mid = 0.5 * (clear + blocked);
+        if Shape::swept(snap, v, own, mid).keeps(obstacle, keep) {
+            clear = mid;
+        } else {
+            blocked = mid;
+        }
+    }
+    clear
+}
+
+/// A body, or the ground it sweeps driving along its path: the body now and
+/// after the travel (the ground between lies within their hull), with the
+/// axes its shadows are compared on: the boxes' own and across the way it
+/// moves. An axis on which two shapes' shadows keep apart proves them apart
+/// (the hull's own edges would be sharper by a hair on a bend, never
+/// looser).
+struct Shape {
+    points: [DVec2; 8],
+    corners: usize,
+    axes: [DVec2; 3],
+    axis_count: usize,
+}
+
+impl Shape {
+    fn body(obb: &Obb) -> Self {
+        let mut points = [DVec2::ZERO; 8];
+        points[..4].copy_from_slice(&obb.corners());
+        Shape {
+            points,
+            corners: 4,
+            axes: [obb.axis; 3],
+            axis_count: 1,
+        }
+    }
+
+    /// The body now and `travel` metres on: moved as the chord between its
+    /// bumpers moves.
+    fn swept(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> Self {
+        let (front, _) = point_on_path(snap.net, v, travel);
+        let (back, _) = point_on_path(snap.net, v, travel - v.length);
+        let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
+        let turn = match (
+            (v.front - v.back).try_normalize(),
+            (front - back).try_normalize(),
+        ) {
+            // The rotation from the chord now to the chord then.
+            (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
+            _ => DVec2::X,
+        };
+        let mut points = [DVec2::ZERO; 8];
+        for (k, &c) in own.obb.corners().iter().enumerate() {
+            points[k] = c;
+            points[k + 4] = mid_then + turn.rotate(c - mid_now);
+        }
+        let moved = (mid_then - mid_now).try_normalize().unwrap_or(own.obb.axis);
+        Shape {
+            points,
+            corners: 8,
+            axes: [own.obb.axis, turn.rotate(own.obb.axis), moved],
+            axis_count: 3,
+        }
+    }
+
+    fn points(&self) -> &[DVec2] {
+        &self.points[..self.corners]
+    }
+
+    /// Both shapes' axes and the normals to them.
+    fn all_axes<'a>(&'a self, other: &'a Shape) -> impl Iterator<Item = DVec2> + 'a {
+        self.axes[..self.axis_count]
+            .iter()
+            .chain(&other.axes[..other.axis_count])
+            .flat_map(|&a| [a, a.perp()])
+    }
+
+    fn apart_on(&self, other: &Shape, axis: DVec2) -> f64 {
+        let (a_lo, a_hi) = shadow(self.points(), axis);
+        let (b_lo, b_hi) = shadow(other.points(), axis);
+        (b_lo - a_hi).max(a_lo - b_hi)
+    }
+
+    /// The widest gap between the two on any of their axes: at least that
+    /// far apart when positive, overlapping about that deep when not.
+    fn gap(&self, other: &Shape) -> f64 {
+        self.all_axes(other)
+            .map(|axis| self.apart_on(other, axis))
+            .fold(f64::NEG_INFINITY, f64::max)
+    }
+
+    /// Whether the two keep `keep` apart on some axis.
+    fn keeps(&self, other: &Shape, keep: f64) -> bool {
+        self.all_axes(other)
+            .any(|axis| self.apart_on(other, axis) >= keep)
+    }
+}
+
+/// The lowest and highest of the points' positions along `axis`.
+fn shadow(points: &[DVec2], axis: DVec2) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in points {
+        let x = p.dot(axis);
+        lo = if x < lo { x } else { lo };
+        hi = if x > hi { x } else { hi };
+    }
+    (lo, hi)
+}
