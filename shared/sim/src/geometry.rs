@@ -268,15 +268,6 @@ impl Obb {
         [c + f + l, c + f - l, c - f - l, c - f + l]
     }
 
-    /// The box lengthened by `ahead` metres at its front.
-    pub fn stretched(&self, ahead: f64) -> Obb {
-        Obb {
-            centre: self.centre + self.axis * (0.5 * ahead),
-            half_length: self.half_length + 0.5 * ahead,
-            ..*self
-        }
-    }
-
     /// Its half extent along `axis` (a unit vector).
     pub fn half_shadow(&self, axis: DVec2) -> f64 {
         self.half_length * self.axis.dot(axis).abs()

@@ -47,7 +47,7 @@ const LEVEL: f64 = 0.05;
 const JUNCTION_APPROACH: f64 = 10.0;
 /// A body this far behind the rear is left behind, metres.
 const BEHIND: f64 = 1.0;
-/// Halvings of the lookahead to find where the way first comes too near.
+/// Halvings of the tick's reach to find where the way first comes too near.
 const BISECTIONS: usize = 5;
 /// Rounding slack on the clearance, metres.
 const SLACK: f64 = 1e-6;
