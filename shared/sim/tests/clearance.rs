@@ -92,12 +92,7 @@ fn a_body_standing_across_the_way_stops_the_vehicle_short_of_it() {
         })),
         WorldConfig::default(),
     );
-    w.crosswalk_enter(
-        "Zebra",
-        "Human_01",
-        trafficmesh_sim::crosswalk::OccupantType::NpcPedestrian,
-    )
-    .unwrap();
+    walker_on(&mut w, "Zebra");
     // Northbound, its front at the zebra's stop point: its body stands
     // across the eastbound road.
     let standing = w.place_vehicle("Taxi", "north", 102.5, 0.0).unwrap();

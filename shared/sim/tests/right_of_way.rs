@@ -301,12 +301,7 @@ fn a_vehicle_crosses_before_a_priority_vehicle_that_stands_for_good() {
         &crossing_with([&["W_x"], &[], &[], &[]], zebra),
         WorldConfig::default(),
     );
-    w.crosswalk_enter(
-        "Zebra",
-        "Human_01",
-        trafficmesh_sim::crosswalk::OccupantType::NpcPedestrian,
-    )
-    .unwrap();
+    walker_on(&mut w, "Zebra");
     let held = w.place_vehicle("Taxi", "W_out", 12.0, 0.0).unwrap();
     let priority = w.place_vehicle("Taxi", "W_in", 99.0, 0.0).unwrap();
     let minor = w.place_vehicle("Taxi", "S_in", 95.0, 0.0).unwrap();

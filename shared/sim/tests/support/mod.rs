@@ -89,6 +89,18 @@ pub fn signalised_road() -> MapFile {
     )
 }
 
+/// A walker steps onto crosswalk `name` (and stays until `crosswalk_exit`):
+/// the zebra holds the traffic that reaches its stop point.
+pub fn walker_on(world: &mut World, name: &str) {
+    world
+        .crosswalk_enter(
+            name,
+            "Human_01",
+            trafficmesh_sim::crosswalk::OccupantType::NpcPedestrian,
+        )
+        .expect("the crosswalk exists");
+}
+
 pub fn vehicle(world: &World, id: u64) -> &Vehicle {
     world.vehicle(id).expect("vehicle exists")
 }
