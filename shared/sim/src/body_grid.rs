@@ -135,6 +135,28 @@ impl BodyGrid {
         }
     }
 
+    /// Whether a body placed at `obb` (height `z`) keeps clear of every
+    /// body as noted, each grown by what it can have covered in one tick:
+    /// read between two rebuilds (by spawning, before the lane index of
+    /// the tick), the bodies may have moved that far since.
+    pub fn clear_of_moved(&self, obb: &Obb, z: f64) -> bool {
+        if self.boxes.is_empty() {
+            return true;
+        }
+        let (lo, hi) = obb.bounds();
+        let mut clear = true;
+        self.for_each_near(lo, hi, |j| {
+            let other = &self.boxes[j as usize];
+            if clear
+                && (other.z - z).abs() <= LEVELS_APART
+                && obb.separation(&other.obb) <= other.swing
+            {
+                clear = false;
+            }
+        });
+        clear
+    }
+
     fn key(&self, cx: i64, cy: i64) -> u32 {
         let h = (cx as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
             ^ (cy as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f);
@@ -157,3 +179,6 @@ fn cell_coordinate(x: f64) -> i64 {
 /// How near a body may come to another before the one moving stops: the
 /// clearance kept, metres.
 pub const MARGIN: f64 = 0.15;
+
+/// Bodies at different heights (a bridge over a road) never meet, metres.
+pub const LEVELS_APART: f64 = 3.0;

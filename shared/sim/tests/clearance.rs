@@ -116,3 +116,80 @@ fn a_body_standing_across_the_way_stops_the_vehicle_short_of_it() {
     });
     assert!(crossed, "it never went on once the crossing was clear");
 }
+
+/// Two lanes 3.2 m wide side by side, bending 20 degrees to the right at
+/// x = 100 (the left one, outside the bend, at a crawl: 1 m/s), far from any
+/// junction.
+fn bend_of_two_lanes() -> trafficmesh_model::MapFile {
+    let turn = (-20f64).to_radians();
+    let (along, left) = (
+        glam::DVec2::from_angle(turn),
+        glam::DVec2::from_angle(turn).perp(),
+    );
+    // The outer lane's corner, where its two straight pieces meet.
+    let t = 3.2 * (turn.cos() - 1.0) / -turn.sin();
+    let corner = glam::DVec2::new(100.0, 0.0) + along * t + left * 3.2;
+    let end = |offset: f64| glam::DVec2::new(100.0, 0.0) + along * 150.0 + left * offset;
+    let [e0, e1] = [end(0.0), end(3.2)];
+    let road = |name: &str, points: &[[f64; 2]], speed: f64, next: &str| {
+        let mut l = lane(name, points, &[next]);
+        l["width"] = json!(3.2);
+        l["speed_limit"] = json!(speed);
+        l
+    };
+    let junction = |name: &str, from: glam::DVec2, next: &str| {
+        let to = from + along * 10.0;
+        let mut j = lane(name, &[[from.x, from.y], [to.x, to.y]], &[next]);
+        j["intersection"] = json!(true);
+        j
+    };
+    let exit = |name: &str, junction_start: glam::DVec2| {
+        let (from, to) = (
+            junction_start + along * 10.0,
+            junction_start + along * 110.0,
+        );
+        lane(name, &[[from.x, from.y], [to.x, to.y]], &[])
+    };
+    map(
+        vec![
+            road("a0", &[[0.0, 0.0], [100.0, 0.0], [e0.x, e0.y]], 13.89, "j0"),
+            road(
+                "a1",
+                &[[0.0, 3.2], [corner.x, corner.y], [e1.x, e1.y]],
+                1.0,
+                "j1",
+            ),
+            junction("j0", e0, "x0"),
+            junction("j1", e1, "x1"),
+            exit("x0", e0),
+            exit("x1", e1),
+        ],
+        json!({}),
+    )
+}
+
+/// A truck passing another on the lane beside it where the two bend: the
+/// rigid bodies cut the bend's inside, and two trucks on 3.2 m lanes do not
+/// fit side by side there. The one coming up waits for the crawling one to
+/// clear the bend instead of driving through its body, on the open road too.
+#[test]
+fn a_truck_does_not_pass_another_through_a_bend_too_tight_for_both() {
+    let mut w = world(
+        &bend_of_two_lanes(),
+        WorldConfig {
+            vehicle: trafficmesh_model::NpcVehicleConfig {
+                speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+                ..Default::default()
+            },
+            ..WorldConfig::default()
+        },
+    );
+    // The crawling one in the bend, the other coming up at full speed.
+    w.place_vehicle("Truck_2t", "a1", 100.0, 1.0).unwrap();
+    w.place_vehicle("Truck_2t", "a0", 40.0, 13.89).unwrap();
+    let through = run_until(&mut w, 300.0, |w| {
+        assert_no_overlap(w);
+        w.vehicles().is_empty()
+    });
+    assert!(through, "both drive on to the end");
+}

@@ -7,6 +7,8 @@ use glam::DVec2;
 use serde_json::json;
 use support::*;
 use trafficmesh_model::{BranchWeights, MapFile, NextWeight, SpawnRate, TrafficSpawnConfig};
+use trafficmesh_sim::motion_check::OVERLAP_MARGIN;
+use trafficmesh_sim::world::{QueuedSpawn, SpawnRejection};
 use trafficmesh_sim::{Ego, SimEvent, WorldConfig};
 
 /// Four parallel eastbound feeder lanes (y = 0, 10, 20, 30), each forking at
@@ -376,4 +378,56 @@ fn a_world_without_simulators_leaves_the_branch_statistics_to_the_spawner() {
     assert_eq!(decisions, 4, "each vehicle chose a branch once");
     assert!(w.branch_stats().is_none());
     assert_eq!(w.branch_csv().lines().count(), 1, "the header alone");
+}
+
+/// A road along y = 0 (through a junction at x = 200), and a lane that
+/// begins just beside it heading away (south from (98, -0.5)): no rule joins
+/// the two, but a body on the road
+/// reaches over where a wide body at the lane's start would stand.
+fn lane_beginning_beside_a_road() -> MapFile {
+    let mut junction = lane("junction", &[[200.0, 0.0], [220.0, 0.0]], &["exit"]);
+    junction["intersection"] = json!(true);
+    map(
+        vec![
+            lane("road", &[[0.0, 0.0], [200.0, 0.0]], &["junction"]),
+            junction,
+            lane("exit", &[[220.0, 0.0], [400.0, 0.0]], &[]),
+            lane("side", &[[98.0, -0.5], [98.0, -100.0]], &[]),
+        ],
+        json!({}),
+    )
+}
+
+/// A truck is not spawned where its body would stand on a body of another
+/// lane (a car passing the lane's start), and is once that body has gone.
+#[test]
+fn no_spawn_onto_a_body_of_another_lane_beside_the_spawn_point() {
+    let mut w = world(&lane_beginning_beside_a_road(), WorldConfig::default());
+    let passing = w.place_vehicle("Taxi", "road", 100.5, 0.0).unwrap();
+    w.step();
+    let truck = w.kind_index("Truck_2t").expect("the catalogue's truck");
+    let side = w.network().lane_id("side").expect("the side lane");
+    let order = QueuedSpawn {
+        kind: truck,
+        lane: side,
+        route: None,
+        max_vehicles: 10,
+    };
+    w.queue_spawn(order.clone());
+    w.step();
+    assert_eq!(
+        w.take_spawn_results(),
+        [Err(SpawnRejection::NotSpawnable)],
+        "the car's body stands where the truck's would"
+    );
+    let gone = run_until(&mut w, 30.0, |w| vehicle(w, passing).back.x > 110.0);
+    assert!(gone, "the car drives on");
+    w.queue_spawn(order);
+    w.step();
+    let admitted = w.take_spawn_results();
+    assert!(
+        matches!(admitted[..], [Ok(_)]),
+        "clear again, the truck spawns: {admitted:?}"
+    );
+    assert!(overlapping_pairs(w.vehicles(), OVERLAP_MARGIN).is_empty());
 }

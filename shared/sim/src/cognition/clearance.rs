@@ -13,14 +13,15 @@
 //! front when it is nearer. Of two vehicles moving into the same ground,
 //! the one behind keeps [`MARGIN`] clear of the ground the one ahead can
 //! cover this tick, so that the two never both stop for each other nor both
-//! go. Vehicles on the open road, clear of junctions and lane changes, are
-//! not checked (following keeps them apart), but are bodies the others see.
+//! go. Vehicles on the open road, clear of junctions and lane changes and
+//! narrow enough for their lane, are not checked (following keeps them
+//! apart), but are bodies the others see.
 
 use glam::DVec2;
 
 use super::Snapshot;
 use super::path::point_on_path;
-use crate::body_grid::{BodyBox, MARGIN};
+use crate::body_grid::{BodyBox, LEVELS_APART, MARGIN};
 use crate::geometry::Obb;
 use crate::vehicle::Vehicle;
 
@@ -34,8 +35,6 @@ pub struct Blocked {
     pub by: u32,
 }
 
-/// Bodies at different heights (a bridge over a road) never meet, metres.
-const LEVELS_APART: f64 = 3.0;
 /// Two headings whose sum is shorter than this (squared) point against each
 /// other (more than about 150 degrees apart): no way both are going.
 const HEADING_AGAINST: f64 = 0.25;
@@ -45,6 +44,10 @@ const LEVEL: f64 = 0.05;
 /// Within this of a junction, before or after it, a body is checked,
 /// metres: room for a bus's swing and a body standing across an exit.
 const JUNCTION_APPROACH: f64 = 10.0;
+/// A body with less room than this on each side of it in its lane is
+/// checked on the open road too: on a bend the chord it is drawn as leaves
+/// its lane (a truck beside another), metres.
+const LANE_SPARE: f64 = 0.5;
 /// A body this far behind the rear is left behind, metres.
 const BEHIND: f64 = 1.0;
 /// Halvings of the tick's reach to find where the way first comes too near.
@@ -113,9 +116,9 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
     nearest.map(|(b, _)| b)
 }
 
-/// Whether the whole body drives along one plain lane, clear of junctions
-/// and of a lane change: where following, lane changes and spawning keep
-/// bodies apart by themselves (bodies meet where ways join, cross or run
+/// Whether the whole body drives along one plain lane with room to spare,
+/// clear of junctions and of a lane change: where following, lane changes
+/// and spawning keep bodies apart by themselves (bodies meet where ways join, cross or run
 /// close, which is in and by junctions and across lanes).
 fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
     let net = snap.net;
@@ -124,7 +127,9 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
         .is_none_or(|j| j.start - v.s > own.swing + JUNCTION_APPROACH);
     let clear_behind = v.s > v.length + JUNCTION_APPROACH
         || v.behind.latest().is_none_or(|l| !net.lane(l).intersection);
-    !net.lane(v.path[0]).intersection
+    let lane = net.lane(v.path[0]);
+    !lane.intersection
+        && lane.width - v.width >= 2.0 * LANE_SPARE
         && clear_ahead
         && clear_behind
         && v.sideways.offset == 0.0

@@ -8,11 +8,13 @@ use crate::conflicts::Body;
 use crate::control::update_pose;
 use crate::decision::StopDistances;
 use crate::events::SimEvent;
-use crate::geometry::{box_corners, boxes_overlap};
+use crate::geometry::{Obb, box_corners, boxes_overlap};
 use crate::network::LaneId;
 use crate::rng::SimRng;
 use crate::spawn::SpawnOutcome;
-use crate::vehicle::{LanesBehind, Pose, RouteProgress, TripStats, Vehicle, VehicleId, ZebraState};
+use crate::vehicle::{
+    BODY_TOLERANCE, LanesBehind, Pose, RouteProgress, TripStats, Vehicle, VehicleId, ZebraState,
+};
 
 /// Why the owner of the vehicles refused a spawn request.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -164,6 +166,14 @@ impl World {
             || l.conflicts.iter().any(|c| {
                 c.a0 < front + CLEARANCE && self.approaching(c.other, c.b0, APPROACH_LANES)
             })
+        {
+            return false;
+        }
+        // Bodies of lanes that do not meet this one as drawn, but a wide body
+        // at its start reaches (a truck at a lane beginning beside a junction).
+        if !self
+            .bodies
+            .clear_of_moved(&body_at_start(l, kind), l.line.point_at(0.0).1)
         {
             return false;
         }
@@ -358,5 +368,22 @@ impl World {
             leave_at_end: false,
         });
         Ok(id)
+    }
+}
+
+/// The box a vehicle of `kind` placed at the start of `lane` is drawn as,
+/// shrunk as the overlap check reads it: the chord from the lane start to
+/// its front.
+fn body_at_start(lane: &crate::network::Lane, kind: &trafficmesh_model::VehicleKind) -> Obb {
+    let back = lane.line.point(0);
+    let front = lane.line.point_at(kind.length).0;
+    let axis = (front - back)
+        .try_normalize()
+        .unwrap_or(lane.line.direction(0));
+    Obb {
+        centre: back + axis * (0.5 * kind.length),
+        axis,
+        half_length: 0.5 * kind.length - BODY_TOLERANCE,
+        half_width: 0.5 * kind.width - BODY_TOLERANCE,
     }
 }
