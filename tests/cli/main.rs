@@ -375,9 +375,9 @@ fn sim_json_reports_insertion_arrival_waiting_and_jams() {
     );
 }
 
-/// `sim --check` watches every tick: on the sample map and a generated grid
-/// (native geometry, the reference's rules) no pose jumps or turns faster
-/// than a car can, no bodies overlap and nobody speeds.
+/// `sim --check` watches every tick: over ten simulated minutes of the sample
+/// map and a generated grid (native geometry, the reference's rules) no pose
+/// jumps or turns faster than a car can, no bodies overlap and nobody speeds.
 #[test]
 fn sim_check_finds_continuous_motion_on_native_maps() {
     let dir = tempfile::tempdir().unwrap();
@@ -387,7 +387,7 @@ fn sim_check_finds_continuous_motion_on_native_maps() {
     ] {
         let v = sim_json(
             &map,
-            &["--duration", "300", "--max-vehicles", vehicles, "--check"],
+            &["--duration", "600", "--max-vehicles", vehicles, "--check"],
         );
         let check = &v["check"];
         assert_eq!(check["ticks"], v["ticks"], "every tick is checked: {check}");
