@@ -119,7 +119,18 @@ impl World {
         if self.vehicles.len() >= max_vehicles {
             return Err(SpawnRejection::MaxVehicles);
         }
-        if !self.is_spawnable(kind, lane, spawned_here) {
+        // Besides IsSpawnable's lanes: bodies of lanes that do not meet this
+        // one as drawn, but a wide body at its start reaches (a truck at a
+        // lane beginning beside a junction). A jammed vehicle moved on is
+        // held to the bodies as they are instead (`body_fits`), its own
+        // left out.
+        let spawn_lane = self.net.lane(lane);
+        if !self.is_spawnable(kind, lane, spawned_here)
+            || !self.bodies.clear_of_moved(
+                &body_at_start(spawn_lane, &self.net.kinds[kind]),
+                spawn_lane.line.point_at(0.0).1,
+            )
+        {
             return Err(SpawnRejection::NotSpawnable);
         }
         let length = self.net.kinds[kind].length;
@@ -166,14 +177,6 @@ impl World {
             || l.conflicts.iter().any(|c| {
                 c.a0 < front + CLEARANCE && self.approaching(c.other, c.b0, APPROACH_LANES)
             })
-        {
-            return false;
-        }
-        // Bodies of lanes that do not meet this one as drawn, but a wide body
-        // at its start reaches (a truck at a lane beginning beside a junction).
-        if !self
-            .bodies
-            .clear_of_moved(&body_at_start(l, kind), l.line.point_at(0.0).1)
         {
             return false;
         }
