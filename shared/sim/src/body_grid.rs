@@ -67,30 +67,14 @@ impl BodyGrid {
                 .par_iter()
                 .with_min_len(chunk_len(vehicles.len()))
                 .map(|v| {
-                    // Nearly always the body is drawn along its chord: no
-                    // sines for its axis then.
-                    let axis = if v.pose.yaw == v.body_yaw {
-                        v.heading
-                    } else {
-                        DVec2::from_angle(v.pose.yaw)
-                    };
-                    let origin = DVec2::new(v.pose.x, v.pose.y);
                     // The footprint the overlap check reads (`sim --check`).
-                    let (half_length, half_width) = (
-                        0.5 * v.length - BODY_TOLERANCE,
-                        0.5 * v.width - BODY_TOLERANCE,
-                    );
+                    let obb = v.drawn_box(BODY_TOLERANCE);
                     let reach = reach(v);
                     BodyBox {
-                        obb: Obb {
-                            centre: origin + axis * (v.front_offset - 0.5 * v.length),
-                            axis,
-                            half_length,
-                            half_width,
-                        },
+                        obb,
                         z: v.pose.z,
                         reach,
-                        swing: reach * (1.0 + half_length.hypot(half_width) / turn_radius),
+                        swing: reach * (1.0 + obb.half_length.hypot(obb.half_width) / turn_radius),
                         id: v.id,
                     }
                 }),
@@ -120,6 +104,10 @@ impl BodyGrid {
     /// Calls `f` once with each vehicle whose bounds (with its swing) meet
     /// the box from `lo` to `hi`.
     pub fn for_each_near(&self, lo: DVec2, hi: DVec2, mut f: impl FnMut(u32)) {
+        // Not built yet (a world's first spawns): no body, and no keys.
+        if self.key_count == 0 {
+            return;
+        }
         let ((x0, y0), (x1, y1)) = (cell_of(lo - self.widest), cell_of(hi));
         for cx in x0..=x1 {
             for cy in y0..=y1 {
@@ -140,9 +128,6 @@ impl BodyGrid {
     /// read between two rebuilds (by spawning, before the lane index of
     /// the tick), the bodies may have moved that far since.
     pub fn clear_of_moved(&self, obb: &Obb, z: f64) -> bool {
-        if self.boxes.is_empty() {
-            return true;
-        }
         let (lo, hi) = obb.bounds();
         let mut clear = true;
         self.for_each_near(lo, hi, |j| {

@@ -93,6 +93,16 @@ pub fn step_speed(
     v.trip.distance += v.speed * dt;
 }
 
+/// How far a vehicle can drive this tick (at its driver model's highest
+/// acceleration).
+pub fn reach(net: &LaneNetwork, c: &NpcVehicleConfig, v: &Vehicle, dt: f64) -> f64 {
+    let accel = match driver_model(net, v, c) {
+        DriverModel::Awsim => c.acceleration,
+        DriverModel::Realistic(idm) => idm.accel,
+    };
+    (v.speed + accel * dt) * dt
+}
+
 /// Holds the tick's travel (from `s_before`) to `cap`, the furthest the
 /// vehicle may drive short of a body in its way, at the speed that covers it.
 pub fn cap_travel(v: &mut Vehicle, s_before: f64, cap: f64, dt: f64) {

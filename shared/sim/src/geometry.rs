@@ -219,9 +219,13 @@ pub fn angle_between(a: f64, b: f64) -> f64 {
 
 /// Corners of an oriented box centred at c with heading yaw and half extents (hl, hw).
 pub fn box_corners(c: DVec2, yaw: f64, hl: f64, hw: f64) -> [DVec2; 4] {
-    let f = DVec2::from_angle(yaw) * hl;
-    let l = DVec2::from_angle(yaw).perp() * hw;
-    [c + f + l, c + f - l, c - f - l, c - f + l]
+    Obb {
+        centre: c,
+        axis: DVec2::from_angle(yaw),
+        half_length: hl,
+        half_width: hw,
+    }
+    .corners()
 }
 
 /// Separating-axis overlap test of two convex quadrilaterals.

@@ -3,6 +3,7 @@
 use glam::DVec2;
 use trafficmesh_model::{LightColor, SpeedMode, TurnSignal, YieldPhase};
 
+use crate::geometry::Obb;
 use crate::network::LaneId;
 use crate::rng::SimRng;
 
@@ -260,18 +261,33 @@ impl Vehicle {
     /// side: the centreline model approximates a rigid body on curves to a
     /// few centimetres.
     pub fn footprint(&self, margin: f64) -> [DVec2; 4] {
-        crate::geometry::box_corners(
-            self.drawn_centre(),
-            self.pose.yaw,
-            self.length * 0.5 - margin,
-            self.width * 0.5 - margin,
-        )
+        self.drawn_box(margin).corners()
+    }
+
+    /// [`Vehicle::footprint`] as an oriented box.
+    pub fn drawn_box(&self, margin: f64) -> Obb {
+        Obb {
+            centre: self.drawn_centre(),
+            axis: self.drawn_axis(),
+            half_length: self.length * 0.5 - margin,
+            half_width: self.width * 0.5 - margin,
+        }
+    }
+
+    /// The unit heading of the body as published. Nearly always it is drawn
+    /// along its chord: no sines then.
+    pub fn drawn_axis(&self) -> DVec2 {
+        if self.pose.yaw == self.body_yaw {
+            self.heading
+        } else {
+            DVec2::from_angle(self.pose.yaw)
+        }
     }
 
     /// The centre of the body as published (the pose is the rear axle's).
     pub fn drawn_centre(&self) -> DVec2 {
         DVec2::new(self.pose.x, self.pose.y)
-            + DVec2::from_angle(self.pose.yaw) * (self.front_offset - self.length * 0.5)
+            + self.drawn_axis() * (self.front_offset - self.length * 0.5)
     }
 
     /// Its body as a road conflict reads it, lying `off_centreline` off its
@@ -336,7 +352,7 @@ impl Vehicle {
     /// and the drawn pose turns like a car's and catches up over metres
     /// where the lanes do not meet. The room beside it is that much less.
     pub fn drawn_off_centreline(&self, net: &crate::network::LaneNetwork) -> f64 {
-        let heading = DVec2::from_angle(self.pose.yaw);
+        let heading = self.drawn_axis();
         let centre = self.drawn_centre();
         let mid = self.s - self.length * 0.5;
         let (lane, s) = if mid >= 0.0 {

@@ -5,8 +5,7 @@ mod support;
 
 use serde_json::{Value, json};
 use support::*;
-use trafficmesh_sim::motion_check::OVERLAP_MARGIN;
-use trafficmesh_sim::{World, WorldConfig};
+use trafficmesh_sim::WorldConfig;
 
 /// Two roads crossing at (100, 0) with nothing marked: no conflict, no rule
 /// for who goes first. Each road enters a junction 4 m past the crossing
@@ -29,12 +28,6 @@ fn unmarked_crossing(extra: Value) -> trafficmesh_model::MapFile {
         ],
         extra,
     )
-}
-
-/// The overlap check of `sim --check`.
-fn assert_no_overlap(w: &World) {
-    let pairs = overlapping_pairs(w.vehicles(), OVERLAP_MARGIN);
-    assert!(pairs.is_empty(), "{pairs:?} overlap at t={:.2}", w.time());
 }
 
 /// Arriving together where nothing tells them who goes first, the two

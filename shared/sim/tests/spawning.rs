@@ -7,7 +7,6 @@ use glam::DVec2;
 use serde_json::json;
 use support::*;
 use trafficmesh_model::{BranchWeights, MapFile, NextWeight, SpawnRate, TrafficSpawnConfig};
-use trafficmesh_sim::motion_check::OVERLAP_MARGIN;
 use trafficmesh_sim::world::{QueuedSpawn, SpawnRejection};
 use trafficmesh_sim::{Ego, SimEvent, WorldConfig};
 
@@ -429,5 +428,5 @@ fn no_spawn_onto_a_body_of_another_lane_beside_the_spawn_point() {
         matches!(admitted[..], [Ok(_)]),
         "clear again, the truck spawns: {admitted:?}"
     );
-    assert!(overlapping_pairs(w.vehicles(), OVERLAP_MARGIN).is_empty());
+    assert_no_overlap(&w);
 }

@@ -3,14 +3,13 @@
 //! regrouping the list (`regroup.rs`).
 
 use rayon::prelude::*;
-use trafficmesh_model::{DriverModel, NpcVehicleConfig};
 
 use super::World;
 use super::awake::with_workers_awake;
 use super::phases::Phase;
 use crate::cognition::right_of_way::RowInfo;
 use crate::cognition::{Perception, Snapshot, deadlock, perceive};
-use crate::control::driver_model;
+use crate::control::reach;
 use crate::events::{DespawnReason, SimEvent, TripRecord};
 use crate::lane_change;
 use crate::lane_choice;
@@ -49,16 +48,6 @@ pub(super) fn push_despawns(events: &mut Vec<SimEvent>, mut trips: Vec<TripRecor
 /// The name the AWSIM reference's log lines use: `<prefab>(Clone)_<id>`.
 pub fn vehicle_name(net: &LaneNetwork, v: &Vehicle) -> String {
     format!("{}(Clone)_{}", net.kinds[v.kind].name, v.id)
-}
-
-/// How far a vehicle can drive this tick (at its driver model's highest
-/// acceleration).
-fn reach(net: &LaneNetwork, c: &NpcVehicleConfig, v: &Vehicle, dt: f64) -> f64 {
-    let accel = match driver_model(net, v, c) {
-        DriverModel::Awsim => c.acceleration,
-        DriverModel::Realistic(idm) => idm.accel,
-    };
-    (v.speed + accel * dt) * dt
 }
 
 impl World {

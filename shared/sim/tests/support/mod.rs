@@ -121,6 +121,12 @@ pub fn run_for(world: &mut World, seconds: f64) {
     run_until(world, seconds, |_| false);
 }
 
+/// No two bodies overlap now, as the overlap check of `sim --check` reads them.
+pub fn assert_no_overlap(w: &World) {
+    let pairs = overlapping_pairs(w.vehicles(), trafficmesh_sim::motion_check::OVERLAP_MARGIN);
+    assert!(pairs.is_empty(), "{pairs:?} overlap at t={:.2}", w.time());
+}
+
 /// Pairs of vehicles (by id) whose footprints overlap: the check `sim --check` makes.
 pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
     trafficmesh_sim::motion_check::overlapping_pairs(vehicles, margin)
