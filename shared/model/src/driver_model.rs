@@ -34,7 +34,7 @@ impl DriverModel {
     pub fn default_tick(&self) -> f64 {
         match self {
             DriverModel::Awsim => 0.02,
-            DriverModel::Realistic(_) => 0.05,
+            DriverModel::Realistic(_) => 0.1,
         }
     }
 

@@ -9,7 +9,8 @@ use rayon::prelude::*;
 
 use crate::buckets::Buckets;
 use crate::geometry::Obb;
-use crate::parallel::chunk_len;
+use crate::network::LaneNetwork;
+use crate::parallel::light_pass_len;
 use crate::vehicle::{BODY_TOLERANCE, Vehicle, VehicleId};
 
 /// One body: where it is, and how far it may go this tick.
@@ -22,6 +23,10 @@ pub struct BodyBox {
     /// How far a corner of the body can move this tick: its travel and what
     /// its turn (no sharper than a car's) swings it, metres.
     pub swing: f64,
+    /// Metres its front still drives on the junction lane it is on (0 just
+    /// past it), infinite away from junction lanes. Of two turns heading
+    /// against each other, the one nearer its end goes first.
+    pub to_leave_junction: f64,
     pub id: VehicleId,
 }
 
@@ -57,6 +62,7 @@ impl BodyGrid {
     /// driven over `turn_radius`.
     pub fn rebuild(
         &mut self,
+        net: &LaneNetwork,
         vehicles: &[Vehicle],
         reach: impl Fn(&Vehicle) -> f64 + Sync,
         turn_radius: f64,
@@ -65,7 +71,7 @@ impl BodyGrid {
         self.boxes.par_extend(
             vehicles
                 .par_iter()
-                .with_min_len(chunk_len(vehicles.len()))
+                .with_min_len(light_pass_len(vehicles.len()))
                 .map(|v| {
                     // The footprint the overlap check reads (`sim --check`).
                     let obb = v.drawn_box(BODY_TOLERANCE);
@@ -75,6 +81,7 @@ impl BodyGrid {
                         z: v.pose.z,
                         reach,
                         swing: reach * (1.0 + obb.half_length.hypot(obb.half_width) / turn_radius),
+                        to_leave_junction: to_leave_junction(net, v),
                         id: v.id,
                     }
                 }),
@@ -146,6 +153,19 @@ impl BodyGrid {
         let h = (cx as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
             ^ (cy as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f);
         (h.rotate_left(23) & (self.key_count as u64 - 1)) as u32
+    }
+}
+
+/// Metres the front still drives on the junction lane it is on; 0 with the
+/// front just past one (the body still in it), infinite elsewhere.
+fn to_leave_junction(net: &LaneNetwork, v: &Vehicle) -> f64 {
+    let lane = net.lane(v.path[0]);
+    if lane.intersection {
+        (lane.length() - v.s).max(0.0)
+    } else if v.s < v.length && v.behind.latest().is_some_and(|l| net.lane(l).intersection) {
+        0.0
+    } else {
+        f64::INFINITY
     }
 }
 

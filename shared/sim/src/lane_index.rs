@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use crate::buckets::Buckets;
 use crate::conflicts::{Body, Gap, bodies_pass};
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_count, chunk_len, join_if};
+use crate::parallel::{chunk_count, chunk_len, join_if, light_pass_parallel};
 use crate::vehicle::Vehicle;
 
 /// One vehicle's body on one lane.
@@ -243,7 +243,7 @@ impl LaneIndex {
         let id = |o: &Occupant| vehicles[o.vehicle as usize].id;
         let by_rear =
             |a: &Occupant, b: &Occupant| a.rear.total_cmp(&b.rear).then_with(|| id(a).cmp(&id(b)));
-        let parallel = vehicles.len() >= MIN_VEHICLES_PER_TASK;
+        let parallel = light_pass_parallel(vehicles.len());
         join_if(
             parallel,
             || {

@@ -25,6 +25,29 @@ pub fn chunk_len(n: usize) -> usize {
     }
 }
 
+/// Vehicles below which the tick's light passes (grouping the lane index,
+/// sorting its lanes, drawing the body grid's boxes, asking for lane
+/// choices) run on one thread even when the heavy ones (lane following,
+/// perception, motion) share the pool: a few hundred vehicles' worth of such
+/// work is shorter than handing it over and pulling the vehicles' lines
+/// back to the other core after.
+pub const MIN_VEHICLES_FOR_LIGHT_PASSES: usize = 2048;
+
+/// Whether a light pass over `n` vehicles runs on the pool.
+pub fn light_pass_parallel(n: usize) -> bool {
+    n >= MIN_VEHICLES_FOR_LIGHT_PASSES
+}
+
+/// The minimum piece of a light pass over `n` vehicles: all of them below
+/// [`MIN_VEHICLES_FOR_LIGHT_PASSES`].
+pub fn light_pass_len(n: usize) -> usize {
+    if light_pass_parallel(n) {
+        chunk_len(n)
+    } else {
+        n.max(1)
+    }
+}
+
 /// How many chunks of [`chunk_len`] a pass over `n` vehicles has.
 pub fn chunk_count(n: usize) -> usize {
     n.div_ceil(chunk_len(n))

@@ -84,6 +84,23 @@ struct TickReport {
     serial_share: Option<f64>,
 }
 
+/// Milliseconds per tick in each phase, and the share of the tick spent in
+/// phases that run on one thread, since timing was enabled.
+pub fn phase_report(world: &trafficmesh_sim::World) -> (BTreeMap<&'static str, f64>, f64) {
+    let ticks = world.phase_times().ticks().max(1) as f64;
+    let (mut serial, mut all) = (0.0, 0.0);
+    let mut ms = BTreeMap::new();
+    for (p, d) in world.phase_times().totals() {
+        let s = d.as_secs_f64();
+        all += s;
+        if !p.parallel() {
+            serial += s;
+        }
+        ms.insert(p.name(), s * 1e3 / ticks);
+    }
+    (ms, serial / all.max(f64::MIN_POSITIVE))
+}
+
 pub fn run(cmd: BenchCommand) -> Result<()> {
     let a = match cmd {
         BenchCommand::Tick(a) => a,
@@ -137,23 +154,10 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     let total: f64 = durations.iter().sum();
     durations.sort_by(f64::total_cmp);
     let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
-    let phase_ms_per_tick: Option<BTreeMap<_, _>> = a.phases.then(|| {
-        world
-            .phase_times()
-            .totals()
-            .map(|(p, d)| (p.name(), d.as_secs_f64() * 1e3 / a.ticks as f64))
-            .collect()
-    });
-    let serial_share = a.phases.then(|| {
-        let (mut serial, mut all) = (0.0, 0.0);
-        for (p, d) in world.phase_times().totals() {
-            all += d.as_secs_f64();
-            if !p.parallel() {
-                serial += d.as_secs_f64();
-            }
-        }
-        serial / all.max(f64::MIN_POSITIVE)
-    });
+    let (phase_ms_per_tick, serial_share) = match a.phases.then(|| phase_report(&world)) {
+        Some((ms, share)) => (Some(ms), Some(share)),
+        None => (None, None),
+    };
     let report = TickReport {
         grid: a.size,
         vehicles: placed,

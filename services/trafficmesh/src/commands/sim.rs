@@ -86,6 +86,11 @@ pub struct SimArgs {
     /// (`check`); slower.
     #[arg(long)]
     check: bool,
+    /// Also report the wall time per tick of each phase (spawn, lane index,
+    /// cognition, ...) and the share spent on one thread only.
+    #[cfg(feature = "bench")]
+    #[arg(long)]
+    phases: bool,
 }
 
 #[derive(Serialize)]
@@ -132,6 +137,12 @@ struct Summary {
     /// With --check: what the motion checks found.
     #[serde(skip_serializing_if = "Option::is_none")]
     check: Option<serde_json::Value>,
+    /// With --phases: milliseconds per tick spent in each phase.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    phase_ms_per_tick: Option<std::collections::BTreeMap<&'static str, f64>>,
+    /// With --phases: the share of the tick spent in phases that run on one thread.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    serial_share: Option<f64>,
 }
 
 /// The longest a run to the end of its demand goes on, simulated seconds.
@@ -240,6 +251,10 @@ pub fn run(a: SimArgs) -> Result<()> {
     let (mut vehicle_steps, mut peak, mut spawned, mut despawned) = (0u64, 0usize, 0u64, 0u64);
     let mut arrived = 0u64;
     let mut check = a.check.then(MotionCheck::default);
+    #[cfg(feature = "bench")]
+    if a.phases {
+        world.phase_times_mut().enable();
+    }
     let started = Instant::now();
     pool.install(|| {
         for tick in 0..ticks {
@@ -289,6 +304,14 @@ pub fn run(a: SimArgs) -> Result<()> {
             &world.spawn_config(),
         )?;
     }
+    #[cfg(feature = "bench")]
+    let phases = a.phases.then(|| super::bench::phase_report(&world));
+    #[cfg(not(feature = "bench"))]
+    let phases: Option<(std::collections::BTreeMap<&'static str, f64>, f64)> = None;
+    let (phase_ms_per_tick, serial_share) = match phases {
+        Some((ms, share)) => (Some(ms), Some(share)),
+        None => (None, None),
+    };
     let waits = world.wait_stats();
     let summary = Summary {
         map: a
@@ -324,6 +347,8 @@ pub fn run(a: SimArgs) -> Result<()> {
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
         check: check.as_ref().map(output::check_report),
+        phase_ms_per_tick,
+        serial_share,
     };
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);

@@ -38,6 +38,9 @@ pub struct Blocked {
 /// Two headings whose sum is shorter than this (squared) point against each
 /// other (more than about 150 degrees apart): no way both are going.
 const HEADING_AGAINST: f64 = 0.25;
+/// Two turns whose headings' sum is shorter than this (squared) head
+/// against each other (more than 120 degrees apart).
+const TURNS_AGAINST: f64 = 1.0;
 /// Fronts this near along the shared way are level, metres (scaled by the
 /// way's length, under 2).
 const LEVEL: f64 = 0.05;
@@ -137,12 +140,23 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
 }
 
 /// Of two bodies, `a` goes before `b`: its front is further along the way
-/// both are heading (the one that reached the ground they share first), or,
-/// level or heading against each other, its id is lower. Antisymmetric, so
-/// that of two bodies exactly one keeps clear of the other's sweep.
+/// both are heading (the one that reached the ground they share first),
+/// except for two turns in a junction heading against each other (a bus
+/// turning left sweeps across the exit of a car turning right from the
+/// other way), where the one nearer the end of its junction lane, which
+/// leaves the ground first, goes first; level, its id is lower.
+/// Antisymmetric, so that of two bodies exactly one keeps clear of the
+/// other's sweep.
 fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
     let way = a.obb.axis + b.obb.axis;
-    if way.length_squared() > HEADING_AGAINST {
+    let turns_against = way.length_squared() <= TURNS_AGAINST
+        && a.to_leave_junction.is_finite()
+        && b.to_leave_junction.is_finite();
+    if turns_against {
+        if (a.to_leave_junction - b.to_leave_junction).abs() > LEVEL {
+            return a.to_leave_junction < b.to_leave_junction;
+        }
+    } else if way.length_squared() > HEADING_AGAINST {
         let front = |x: &BodyBox| (x.obb.centre + x.obb.axis * x.obb.half_length).dot(way);
         let (fa, fb) = (front(a), front(b));
         if (fa - fb).abs() > LEVEL {
@@ -261,4 +275,49 @@ fn shadow(points: &[DVec2], axis: DVec2) -> (f64, f64) {
         hi = if x > hi { x } else { hi };
     }
     (lo, hi)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A body heading `degrees` from +x with its centre at (x, y), `to_leave`
+    /// metres from the end of its junction lane.
+    fn body(id: u64, (x, y): (f64, f64), degrees: f64, to_leave: f64) -> BodyBox {
+        BodyBox {
+            obb: Obb {
+                centre: DVec2::new(x, y),
+                axis: DVec2::from_angle(degrees.to_radians()),
+                half_length: 2.5,
+                half_width: 0.9,
+            },
+            to_leave_junction: to_leave,
+            id,
+            ..BodyBox::default()
+        }
+    }
+
+    /// A bus that has just begun its left turn (12 m of it to go) and a car
+    /// turning right the other way, 3 m from the end of its turn: the car
+    /// leaves the ground they share first, so it goes first, whichever id
+    /// is lower and whichever front lies further along their bisector.
+    #[test]
+    fn of_two_turns_heading_against_each_other_the_one_nearer_its_end_goes_first() {
+        let bus = body(1, (1016.0, 134.6), -4.0, 12.5);
+        let car = body(2, (1019.0, 137.5), -149.0, 3.0);
+        assert!(goes_first(&car, &bus));
+        assert!(!goes_first(&bus, &car));
+    }
+
+    /// Off junction lanes the same two bodies go by where their fronts lie
+    /// along the way both are heading: the rule for turns is the turns'.
+    #[test]
+    fn bodies_heading_against_each_other_off_junctions_go_by_their_fronts() {
+        let a = body(1, (1016.0, 134.6), -4.0, f64::INFINITY);
+        let b = body(2, (1019.0, 137.5), -149.0, 3.0);
+        assert_eq!(goes_first(&a, &b), !goes_first(&b, &a));
+        let way = a.obb.axis + b.obb.axis;
+        let front = |x: &BodyBox| (x.obb.centre + x.obb.axis * x.obb.half_length).dot(way);
+        assert_eq!(goes_first(&a, &b), front(&a) > front(&b));
+    }
 }

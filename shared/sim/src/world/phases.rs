@@ -65,6 +65,7 @@ pub struct PhaseTimes {
     enabled: bool,
     lap_start: Option<Instant>,
     totals: [Duration; Phase::ALL.len()],
+    ticks: u64,
 }
 
 impl PhaseTimes {
@@ -79,15 +80,23 @@ impl PhaseTimes {
         Phase::ALL.iter().map(|&p| (p, self.totals[p as usize]))
     }
 
+    /// Ticks timed since timing was enabled or reset.
+    #[cfg(feature = "bench")]
+    pub fn ticks(&self) -> u64 {
+        self.ticks
+    }
+
     #[cfg(feature = "bench")]
     pub fn reset(&mut self) {
         self.totals = Default::default();
+        self.ticks = 0;
     }
 
     pub(super) fn begin(&mut self) {
         // Without the `bench` feature nothing can enable it: no clock is read.
         if cfg!(feature = "bench") && self.enabled {
             self.lap_start = Some(Instant::now());
+            self.ticks += 1;
         }
     }
 

@@ -15,7 +15,9 @@ use crate::lane_change;
 use crate::lane_choice;
 use crate::lookahead;
 use crate::network::{LaneId, LaneNetwork};
-use crate::parallel::{MIN_VEHICLES_PER_TASK, chunk_len, join_if};
+use crate::parallel::{
+    MIN_VEHICLES_PER_TASK, chunk_len, join_if, light_pass_len, light_pass_parallel,
+};
 use crate::pose::TURN_RADIUS;
 use crate::vehicle::Vehicle;
 
@@ -77,7 +79,7 @@ impl World {
         self.phase_times.lap(Phase::FollowLanes);
         // The lane-following pass took the items of both; the junctions'
         // grouping runs beside the lane index's.
-        let parallel = self.vehicles.len() >= MIN_VEHICLES_PER_TASK;
+        let parallel = light_pass_parallel(self.vehicles.len());
         let (net, index, junctions) = (&self.net, &mut self.index, &mut self.junctions);
         let (vehicles, bodies) = (&self.vehicles, &mut self.bodies);
         let (motion, dt) = (&self.config.vehicle, dt);
@@ -86,7 +88,7 @@ impl World {
             || index.group(net, vehicles),
             || {
                 junctions.group(net);
-                bodies.rebuild(vehicles, |v| reach(net, motion, v, dt), TURN_RADIUS);
+                bodies.rebuild(net, vehicles, |v| reach(net, motion, v, dt), TURN_RADIUS);
             },
         );
         self.phase_times.lap(Phase::LaneIndex);
@@ -141,7 +143,7 @@ impl World {
         // Every vehicle is asked: on the pool, in list order.
         let mut choices: Vec<lane_choice::Choice> = (0..vehicles.len())
             .into_par_iter()
-            .with_min_len(chunk_len(vehicles.len()))
+            .with_min_len(light_pass_len(vehicles.len()))
             .filter_map(|i| lane_choice::choose(net, index, vehicles, i, &motion, looking))
             .collect();
         if candidates.is_empty() && choices.is_empty() {
