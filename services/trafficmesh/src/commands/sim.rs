@@ -51,7 +51,7 @@ pub struct SimArgs {
     #[arg(long, default_value_t = 0)]
     threads: usize,
     /// Tick length, seconds [default: 0.02 with `awsim` drivers, the
-    /// reference's 50 Hz; 0.05 with `realistic` ones].
+    /// reference's 50 Hz; 0.1 with `realistic` ones, IDM's usual step].
     #[arg(long, allow_negative_numbers = true)]
     dt: Option<f64>,
     /// Directory for trips.csv, traffic_branch_decisions.csv and traffic_spawn.json.
