@@ -186,3 +186,68 @@ fn a_truck_does_not_pass_another_through_a_bend_too_tight_for_both() {
     });
     assert!(through, "both drive on to the end");
 }
+
+/// A road heading east into a junction 6 m before it crosses a road
+/// heading north, whose zebra just past the crossing holds a northbound
+/// truck with its body across the eastbound way, inside the junction.
+fn junction_with_a_body_across_it() -> trafficmesh_model::MapFile {
+    let wide = |name: &str, points: &[[f64; 2]], next: &str| {
+        let mut l = lane(name, points, &[next]);
+        l["width"] = json!(3.2);
+        l
+    };
+    let junction = |name: &str, points: &[[f64; 2]], next: &str| {
+        let mut j = wide(name, points, next);
+        j["intersection"] = json!(true);
+        j
+    };
+    map(
+        vec![
+            wide("east", &[[0.0, 0.0], [94.0, 0.0]], "east_j"),
+            junction("east_j", &[[94.0, 0.0], [114.0, 0.0]], "east_x"),
+            lane("east_x", &[[114.0, 0.0], [300.0, 0.0]], &[]),
+            wide("north", &[[100.0, -100.0], [100.0, 4.0]], "north_j"),
+            junction("north_j", &[[100.0, 4.0], [100.0, 14.0]], "north_x"),
+            lane("north_x", &[[100.0, 14.0], [100.0, 200.0]], &[]),
+        ],
+        json!({
+            "crosswalks": [{
+                "name": "Zebra",
+                "area": { "shape": "box", "center": [100.0, 6.0], "half_extents": [6.0, 1.5] },
+                "stop_points": [{ "position": [100.0, 3.0] }]
+            }]
+        }),
+    )
+}
+
+/// A truck as wide as its lane does not drive into a junction whose way
+/// through a standing body blocks: stopped short of that body inside the
+/// junction, it would stand in the way of the one it stopped for. It waits
+/// at the junction's entry, and goes once the body has gone.
+#[test]
+fn a_wide_body_waits_before_a_junction_whose_way_through_a_standing_body_blocks() {
+    let mut w = world(&junction_with_a_body_across_it(), WorldConfig::default());
+    walker_on(&mut w, "Zebra");
+    // Northbound, its front at the zebra's stop point: its body stands
+    // across the eastbound way, 6 m into the eastbound junction.
+    let standing = w.place_vehicle("Truck_2t", "north", 102.5, 0.0).unwrap();
+    let coming = w.place_vehicle("Truck_2t", "east", 40.0, 10.0).unwrap();
+    run_until(&mut w, 20.0, |w| {
+        assert_no_overlap(w);
+        false
+    });
+    let (s, c) = (vehicle(&w, standing), vehicle(&w, coming));
+    assert!(s.speed < 0.01, "the walker holds the northbound truck");
+    assert!(c.speed < 0.01, "the eastbound truck waits");
+    assert!(
+        (80.0..=94.5).contains(&c.front.x),
+        "it waits at the junction's entry (x = 94), not in the junction up to the body: front at x = {:.1}",
+        c.front.x
+    );
+    w.crosswalk_exit("Zebra", "Human_01").unwrap();
+    let through = run_until(&mut w, 60.0, |w| {
+        assert_no_overlap(w);
+        w.vehicle(coming).is_none_or(|v| v.front.x > 120.0)
+    });
+    assert!(through, "it goes on once the body has gone");
+}

@@ -132,11 +132,17 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
         || v.behind.latest().is_none_or(|l| !net.lane(l).intersection);
     let lane = net.lane(v.path[0]);
     !lane.intersection
-        && lane.width - v.width >= 2.0 * LANE_SPARE
+        && !is_wide(net, v)
         && clear_ahead
         && clear_behind
         && v.sideways.offset == 0.0
         && v.shadow.is_none()
+}
+
+/// A body with less than [`LANE_SPARE`] on each side in its lane: on a
+/// bend the chord it is drawn as leaves its lane.
+pub fn is_wide(net: &crate::network::LaneNetwork, v: &Vehicle) -> bool {
+    net.lane(v.path[0]).width - v.width < 2.0 * LANE_SPARE
 }
 
 /// Of two bodies, `a` goes before `b`: its front is further along the way

@@ -8,6 +8,7 @@ pub mod curve;
 pub mod deadlock;
 pub mod light;
 pub mod obstacles;
+pub mod passage;
 pub mod path;
 pub mod right_of_way;
 

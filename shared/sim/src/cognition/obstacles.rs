@@ -97,6 +97,12 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
             });
         }
     }
+    if let Some((entry, by)) = super::passage::blocked_by_standing(snap, i) {
+        best = best.nearer(FrontObstacle {
+            distance: entry,
+            vehicle: Some(by),
+        });
+    }
     if let Some(k) = best.vehicle
         && snap.vehicles[k as usize].speed < super::deadlock::STOPPED_SPEED
     {
