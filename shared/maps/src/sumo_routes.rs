@@ -7,6 +7,9 @@
 //! through the imported network's connections.
 
 use std::collections::HashMap;
+use std::rc::Rc;
+
+use rustc_hash::FxHashMap;
 
 use roxmltree::Node;
 use trafficmesh_model::hash::{Fnv1a, GOLDEN, splitmix};
@@ -33,16 +36,38 @@ const DEFAULT_WIDTH: f64 = 1.8;
 
 struct Network<'m> {
     /// Normal lanes of each edge, by lane index.
-    edge_lanes: HashMap<&'m str, Vec<&'m str>>,
-    next: HashMap<&'m str, &'m [String]>,
-    length: HashMap<&'m str, f64>,
+    edge_lanes: FxHashMap<&'m str, Vec<&'m str>>,
+    next: FxHashMap<&'m str, &'m [String]>,
+    length: FxHashMap<&'m str, f64>,
     /// The classes each lane allows; empty: all.
-    classes: HashMap<&'m str, &'m [String]>,
+    classes: FxHashMap<&'m str, &'m [String]>,
 }
 
 /// The cheapest way on from a lane: its cost, the load on its lanes, and its
 /// lanes (that lane first).
-type Continuation = Option<(f64, f64, Vec<String>)>;
+type Continuation<'a> = Option<(f64, f64, Rc<Steps<'a>>)>;
+
+/// The lanes of a way on: some lanes, then the way on from a lane reached
+/// (shared by every way that runs on from it, not copied), without its first
+/// lane where the vehicle changes onto that lane from the last of these.
+struct Steps<'a> {
+    lanes: Vec<&'a str>,
+    rest: Option<(Rc<Steps<'a>>, bool)>,
+}
+
+impl Steps<'_> {
+    /// Every lane in order.
+    fn to_vec(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        let mut node = Some((self, false));
+        while let Some((steps, skip_first)) = node {
+            let skip = usize::from(skip_first);
+            out.extend(steps.lanes.iter().skip(skip).map(|l| l.to_string()));
+            node = steps.rest.as_ref().map(|(r, skip)| (r.as_ref(), *skip));
+        }
+        out
+    }
+}
 
 /// Seconds over which a departure's weight on the lanes of its route fades
 /// to 1/e: about the time a trip spends on the way.
@@ -53,7 +78,7 @@ const LOAD_MEMORY: f64 = 600.0;
 /// serve their way equally well by their queues; a lane that also carries a
 /// turn has the longer queue, so those going on straight take the others.
 #[derive(Default)]
-struct LaneLoads(HashMap<String, (f64, f64)>);
+struct LaneLoads(FxHashMap<String, (f64, f64)>);
 
 impl LaneLoads {
     /// The load on `lane` at departure time `t` (junction lanes carry none).
@@ -81,7 +106,7 @@ const ROOMY_LANE: f64 = 50.0;
 
 impl<'m> Network<'m> {
     fn new(map: &'m MapFile) -> Self {
-        let mut edge_lanes: HashMap<&str, Vec<&str>> = HashMap::new();
+        let mut edge_lanes: FxHashMap<&str, Vec<&str>> = FxHashMap::default();
         for l in &map.lanes {
             if let Some((edge, _)) = l.name.rsplit_once('_')
                 && !l.name.starts_with(':')
@@ -142,7 +167,7 @@ impl<'m> Network<'m> {
         loads: &LaneLoads,
         t: f64,
     ) -> Option<(Vec<Vec<String>>, usize)> {
-        let mut memo: HashMap<(&str, usize), Continuation> = HashMap::new();
+        let mut memo: FxHashMap<(&str, usize), Continuation> = FxHashMap::default();
         let ways = Ways {
             edges,
             class,
@@ -158,7 +183,7 @@ impl<'m> Network<'m> {
             .filter_map(|start| {
                 let (cost, load, lanes) = self.extend(start, &ways, 1, &mut memo)?;
                 let key = draw(spread, start);
-                Some((Rank { cost, load, key }, lanes))
+                Some((Rank { cost, load, key }, lanes.to_vec()))
             })
             .collect();
         starts.sort_by(|a, b| cheaper(a.0, b.0));
@@ -184,16 +209,20 @@ impl<'m> Network<'m> {
         lane: &'a str,
         ways: &Ways,
         k: usize,
-        memo: &mut HashMap<(&'a str, usize), Continuation>,
-    ) -> Continuation {
+        memo: &mut FxHashMap<(&'a str, usize), Continuation<'a>>,
+    ) -> Continuation<'a> {
         let (edges, class) = (ways.edges, ways.class);
         if k == edges.len() {
-            return Some((0.0, ways.loads.at(lane, ways.t), vec![lane.to_string()]));
+            let end = Steps {
+                lanes: vec![lane],
+                rest: None,
+            };
+            return Some((0.0, ways.loads.at(lane, ways.t), Rc::new(end)));
         }
         if let Some(known) = memo.get(&(lane, k)) {
             return known.clone();
         }
-        let mut best: Option<(Rank, Vec<String>)> = None;
+        let mut best: Option<(Rank, Rc<Steps<'a>>)> = None;
         // Through up to three internal lanes to a lane of the next edge.
         let mut frontier: Vec<Vec<&str>> = vec![vec![lane]];
         for _ in 0..4 {
@@ -242,9 +271,13 @@ impl<'m> Network<'m> {
                             .as_ref()
                             .is_none_or(|b| cheaper(candidate, b.0) == std::cmp::Ordering::Less)
                         {
-                            let mut out: Vec<String> = p.iter().map(|s| s.to_string()).collect();
-                            out.extend(rest.into_iter().skip(1));
-                            best = Some((candidate, out));
+                            // The lane reached is the first of the way on,
+                            // or one the vehicle changes from onto it.
+                            let out = Steps {
+                                lanes: p.clone(),
+                                rest: Some((rest, true)),
+                            };
+                            best = Some((candidate, Rc::new(out)));
                         }
                     }
                 }
