@@ -63,27 +63,12 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
     if to > v.path_length - v.s {
         return None;
     }
-    let mut coarse = [(0.0, Obb::default()); MAX_COARSE];
-    let mut n = 0;
-    let mut t = from;
-    loop {
-        coarse[n] = (t, body_at(snap, v, t));
-        n += 1;
-        if t >= to || n == MAX_COARSE {
-            break;
-        }
-        t = (t + COARSE_STEP).min(to);
-    }
-    let coarse = &coarse[..n];
-    let (mut lo, mut hi) = coarse[0].1.bounds();
-    for (_, b) in &coarse[1..] {
-        let (a, c) = b.bounds();
-        (lo, hi) = (lo.min(a), hi.max(c));
-    }
-    let waiting = coarse[0].1;
+    let waiting = body_at(snap, v, from);
+    let (lo, hi) = way_bounds(snap, v, (from - v.length, to));
+    let pad = DVec2::splat(0.5 * v.width + WAY_PAD);
     let own_z = v.pose.z;
     let mut standing: Vec<u32> = Vec::new();
-    snap.bodies.for_each_near(lo, hi, |j| {
+    snap.bodies.for_each_near(lo - pad, hi + pad, |j| {
         let other = &snap.vehicles[j as usize];
         let body = snap.bodies.body(j as usize);
         if j as usize != i
@@ -100,6 +85,18 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
     if standing.is_empty() {
         return None;
     }
+    let mut coarse = [(0.0, Obb::default()); MAX_COARSE];
+    let mut n = 0;
+    let mut t = from;
+    loop {
+        coarse[n] = (t, body_at(snap, v, t));
+        n += 1;
+        if t >= to || n == MAX_COARSE {
+            break;
+        }
+        t = (t + COARSE_STEP).min(to);
+    }
+    let coarse = &coarse[..n];
     standing.sort_unstable_by_key(|&j| snap.vehicles[j as usize].id);
     for (k, (t0, near)) in coarse.iter().enumerate() {
         for &j in &standing {
@@ -125,6 +122,38 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
         }
     }
     None
+}
+
+/// How far past the bounds of its path a body's box may reach beyond half
+/// its width, metres: a bus's chord on a tight turn is shorter than the bus.
+const WAY_PAD: f64 = 2.0;
+
+/// The bounds of the vehicle's path from travel `a` to `b` (its vertices
+/// and ends): every chord between two of its points lies within them.
+fn way_bounds(snap: &Snapshot, v: &Vehicle, (a, b): (f64, f64)) -> (DVec2, DVec2) {
+    let (mut lo, _) = point_on_path(snap.net, v, a);
+    let mut hi = lo;
+    let mut take = |p: DVec2| {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    };
+    take(point_on_path(snap.net, v, b).0);
+    for (_, lane, offset) in lanes_ahead(snap.net, v) {
+        if offset >= b {
+            break;
+        }
+        let line = &snap.net.lane(lane).line;
+        if offset + line.length() <= a {
+            continue;
+        }
+        for vertex in &line.vertices {
+            let t = offset + vertex.cum;
+            if t > a && t < b {
+                take(vertex.point);
+            }
+        }
+    }
+    (lo, hi)
 }
 
 /// The body as the overlap check reads it, its front `travel` metres on
