@@ -263,6 +263,18 @@ pub struct Obb {
 }
 
 impl Obb {
+    /// A body `length` by `width` drawn on the chord from its back bumper to
+    /// its front one (centred on it, as `pose` draws bodies), shrunk by
+    /// `margin` on every side.
+    pub fn on_chord(back: DVec2, front: DVec2, (length, width): (f64, f64), margin: f64) -> Self {
+        Obb {
+            centre: 0.5 * (back + front),
+            axis: (front - back).try_normalize().unwrap_or(DVec2::X),
+            half_length: 0.5 * length - margin,
+            half_width: 0.5 * width - margin,
+        }
+    }
+
     pub fn corners(&self) -> [DVec2; 4] {
         let (f, l) = (
             self.axis * self.half_length,

@@ -31,7 +31,7 @@ pub fn chunk_len(n: usize) -> usize {
 /// perception, motion) share the pool: a few hundred vehicles' worth of such
 /// work is shorter than handing it over and pulling the vehicles' lines
 /// back to the other core after.
-pub const MIN_VEHICLES_FOR_LIGHT_PASSES: usize = 2048;
+const MIN_VEHICLES_FOR_LIGHT_PASSES: usize = 2048;
 
 /// Whether a light pass over `n` vehicles runs on the pool.
 pub fn light_pass_parallel(n: usize) -> bool {

@@ -76,29 +76,29 @@ struct TickReport {
     /// size (after warm-up), per vehicle: the data itself (glibc only).
     #[serde(skip_serializing_if = "Option::is_none")]
     heap_bytes_per_vehicle: Option<f64>,
-    /// With --phases: milliseconds per tick spent in each phase.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    phase_ms_per_tick: Option<BTreeMap<&'static str, f64>>,
-    /// With --phases: the share of the tick spent in phases that run on one thread.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    serial_share: Option<f64>,
+    /// With --phases: where the tick's time went.
+    #[serde(flatten)]
+    phases: Option<PhaseReport>,
 }
 
-/// Milliseconds per tick in each phase, and the share of the tick spent in
-/// phases that run on one thread, since timing was enabled.
-pub fn phase_report(world: &trafficmesh_sim::World) -> (BTreeMap<&'static str, f64>, f64) {
-    let ticks = world.phase_times().ticks().max(1) as f64;
-    let (mut serial, mut all) = (0.0, 0.0);
-    let mut ms = BTreeMap::new();
-    for (p, d) in world.phase_times().totals() {
-        let s = d.as_secs_f64();
-        all += s;
-        if !p.parallel() {
-            serial += s;
+/// Where a tick's time went, per phase (`--phases`).
+#[derive(Serialize)]
+pub struct PhaseReport {
+    /// Milliseconds per tick spent in each phase.
+    phase_ms_per_tick: BTreeMap<&'static str, f64>,
+    /// The share of the tick spent in phases that run on one thread.
+    serial_share: f64,
+}
+
+impl PhaseReport {
+    /// The world's phase times since timing was enabled.
+    pub fn of(world: &trafficmesh_sim::World) -> Self {
+        let times = world.phase_times();
+        PhaseReport {
+            phase_ms_per_tick: times.ms_per_tick().map(|(p, ms)| (p.name(), ms)).collect(),
+            serial_share: times.serial_share(),
         }
-        ms.insert(p.name(), s * 1e3 / ticks);
     }
-    (ms, serial / all.max(f64::MIN_POSITIVE))
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
@@ -154,10 +154,6 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     let total: f64 = durations.iter().sum();
     durations.sort_by(f64::total_cmp);
     let pct = |q: f64| durations[((durations.len() - 1) as f64 * q).round() as usize] * 1e3;
-    let (phase_ms_per_tick, serial_share) = match a.phases.then(|| phase_report(&world)) {
-        Some((ms, share)) => (Some(ms), Some(share)),
-        None => (None, None),
-    };
     let report = TickReport {
         grid: a.size,
         vehicles: placed,
@@ -172,8 +168,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         realtime_factor_at_dt_0_02: 0.02 / (total / a.ticks as f64),
         bytes_per_vehicle: per_vehicle(rss_map, rss_traffic),
         heap_bytes_per_vehicle: heap_map.zip(heap_traffic).map(|(a, b)| per_vehicle(a, b)),
-        phase_ms_per_tick,
-        serial_share,
+        phases: a.phases.then(|| PhaseReport::of(&world)),
     };
     if a.json {
         println!("{}", serde_json::to_string(&report)?);

@@ -137,12 +137,10 @@ struct Summary {
     /// With --check: what the motion checks found.
     #[serde(skip_serializing_if = "Option::is_none")]
     check: Option<serde_json::Value>,
-    /// With --phases: milliseconds per tick spent in each phase.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    phase_ms_per_tick: Option<std::collections::BTreeMap<&'static str, f64>>,
-    /// With --phases: the share of the tick spent in phases that run on one thread.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    serial_share: Option<f64>,
+    /// With --phases: where the tick's time went.
+    #[cfg(feature = "bench")]
+    #[serde(flatten)]
+    phases: Option<super::bench::PhaseReport>,
 }
 
 /// The longest a run to the end of its demand goes on, simulated seconds.
@@ -304,14 +302,6 @@ pub fn run(a: SimArgs) -> Result<()> {
             &world.spawn_config(),
         )?;
     }
-    #[cfg(feature = "bench")]
-    let phases = a.phases.then(|| super::bench::phase_report(&world));
-    #[cfg(not(feature = "bench"))]
-    let phases: Option<(std::collections::BTreeMap<&'static str, f64>, f64)> = None;
-    let (phase_ms_per_tick, serial_share) = match phases {
-        Some((ms, share)) => (Some(ms), Some(share)),
-        None => (None, None),
-    };
     let waits = world.wait_stats();
     let summary = Summary {
         map: a
@@ -347,8 +337,8 @@ pub fn run(a: SimArgs) -> Result<()> {
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),
         check: check.as_ref().map(output::check_report),
-        phase_ms_per_tick,
-        serial_share,
+        #[cfg(feature = "bench")]
+        phases: a.phases.then(|| super::bench::PhaseReport::of(&world)),
     };
     if a.json {
         println!("{}", serde_json::to_string(&summary)?);

@@ -44,20 +44,20 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
     if net.lane(v.path[0]).intersection || !is_wide(net, v) {
         return None;
     }
-    let decide = v.speed * v.speed / (2.0 * snap.config.sudden_deceleration) + DECIDE_AHEAD;
     // The first run of junction lanes ahead: from its entry to its end.
-    let mut run: Option<(f64, f64)> = None;
-    for (_, lane, offset) in lanes_ahead(net, v).skip(1) {
-        let l = net.lane(lane);
-        match (l.intersection, run) {
-            (true, None) if offset > decide => return None,
-            (true, None) => run = Some((offset, offset + l.length())),
-            (true, Some((entry, _))) => run = Some((entry, offset + l.length())),
-            (false, Some(_)) => break,
-            (false, None) => {}
-        }
+    let first = v.first_junction_lane?;
+    let entry = first.start - v.s;
+    let decide = v.speed * v.speed / (2.0 * snap.config.sudden_deceleration) + DECIDE_AHEAD;
+    if entry > decide {
+        return None;
     }
-    let (entry, end) = run?;
+    let end = entry
+        + v.path[first.k..]
+            .iter()
+            .map(|&l| net.lane(l))
+            .take_while(|l| l.intersection)
+            .map(|l| l.length())
+            .sum::<f64>();
     // The body waiting at the entry, and through to its rear leaving.
     let (from, to) = (entry.max(0.0), end + v.length);
     if to > v.path_length - v.s {
@@ -161,11 +161,5 @@ fn way_bounds(snap: &Snapshot, v: &Vehicle, (a, b): (f64, f64)) -> (DVec2, DVec2
 fn body_at(snap: &Snapshot, v: &Vehicle, travel: f64) -> Obb {
     let (front, _) = point_on_path(snap.net, v, travel);
     let (back, _) = point_on_path(snap.net, v, travel - v.length);
-    let axis = (front - back).try_normalize().unwrap_or(DVec2::X);
-    Obb {
-        centre: 0.5 * (front + back),
-        axis,
-        half_length: v.length * 0.5 - BODY_TOLERANCE,
-        half_width: v.width * 0.5 - BODY_TOLERANCE,
-    }
+    Obb::on_chord(back, front, (v.length, v.width), BODY_TOLERANCE)
 }

@@ -74,16 +74,28 @@ impl PhaseTimes {
         self.enabled = true;
     }
 
-    /// Time accumulated in each phase since timing was enabled or reset.
+    /// Milliseconds per timed tick spent in each phase, since timing was
+    /// enabled or reset.
     #[cfg(feature = "bench")]
-    pub fn totals(&self) -> impl Iterator<Item = (Phase, Duration)> + '_ {
-        Phase::ALL.iter().map(|&p| (p, self.totals[p as usize]))
+    pub fn ms_per_tick(&self) -> impl Iterator<Item = (Phase, f64)> + '_ {
+        let ticks = self.ticks.max(1) as f64;
+        Phase::ALL
+            .iter()
+            .map(move |&p| (p, self.totals[p as usize].as_secs_f64() * 1e3 / ticks))
     }
 
-    /// Ticks timed since timing was enabled or reset.
+    /// The share of the timed ticks spent in phases that run on one thread.
     #[cfg(feature = "bench")]
-    pub fn ticks(&self) -> u64 {
-        self.ticks
+    pub fn serial_share(&self) -> f64 {
+        let (mut serial, mut all) = (0.0, 0.0);
+        for &p in &Phase::ALL {
+            let t = self.totals[p as usize].as_secs_f64();
+            all += t;
+            if !p.parallel() {
+                serial += t;
+            }
+        }
+        serial / all.max(f64::MIN_POSITIVE)
     }
 
     #[cfg(feature = "bench")]

@@ -378,15 +378,6 @@ impl World {
 /// shrunk as the overlap check reads it: the chord from the lane start to
 /// its front.
 fn body_at_start(lane: &crate::network::Lane, kind: &trafficmesh_model::VehicleKind) -> Obb {
-    let back = lane.line.point(0);
-    let front = lane.line.point_at(kind.length).0;
-    let axis = (front - back)
-        .try_normalize()
-        .unwrap_or(lane.line.direction(0));
-    Obb {
-        centre: back + axis * (0.5 * kind.length),
-        axis,
-        half_length: 0.5 * kind.length - BODY_TOLERANCE,
-        half_width: 0.5 * kind.width - BODY_TOLERANCE,
-    }
+    let (back, front) = (lane.line.point(0), lane.line.point_at(kind.length).0);
+    Obb::on_chord(back, front, (kind.length, kind.width), BODY_TOLERANCE)
 }
