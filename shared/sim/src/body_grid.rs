@@ -51,6 +51,11 @@ pub struct BodyGrid {
     /// The widest bounds of any body, on each axis: a query looks this much
     /// further back for the cells where bodies reaching into it are noted.
     widest: DVec2,
+    /// The bounds (with their swing) of the bodies that have squeezed past
+    /// others (see [`Vehicle::squeeze_until`]): few, and where one stands
+    /// no rule placed it, so every body near one is checked, wherever it
+    /// drives.
+    squeezed: Vec<(DVec2, DVec2)>,
 }
 
 /// A cell's side, metres: about a bus's length.
@@ -88,11 +93,15 @@ impl BodyGrid {
         );
         self.key_count = (2 * self.boxes.len()).next_power_of_two().max(64);
         self.items.clear();
+        self.squeezed.clear();
         self.widest = DVec2::ZERO;
         for (i, b) in self.boxes.iter().enumerate() {
             let (lo, hi) = b.obb.bounds();
             let (lo, hi) = (lo - DVec2::splat(b.swing), hi + DVec2::splat(b.swing));
             self.widest = self.widest.max(hi - lo);
+            if vehicles[i].has_squeezed() {
+                self.squeezed.push((lo, hi));
+            }
             let (cx, cy) = cell_of(lo);
             let noted = Noted {
                 index: i as u32,
@@ -102,6 +111,14 @@ impl BodyGrid {
             self.items.push((self.key(cx, cy), noted));
         }
         self.cells.rebuild(self.key_count, &self.items);
+    }
+
+    /// Does a body that has squeezed past others reach into the box from
+    /// `lo` to `hi`?
+    pub fn squeezed_near(&self, lo: DVec2, hi: DVec2) -> bool {
+        self.squeezed
+            .iter()
+            .any(|&(l, h)| l.cmple(hi).all() && lo.cmple(h).all())
     }
 
     pub fn body(&self, i: usize) -> &BodyBox {

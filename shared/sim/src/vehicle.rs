@@ -194,6 +194,10 @@ pub struct Vehicle {
     pub shadow: Option<LaneId>,
     /// Set by deadlock breaking: ignore lane rules while entering this junction.
     pub forced_through: Option<u32>,
+    /// Set by gridlock breaking, until this simulated time: squeeze past
+    /// bodies beside the way (road conflicts judged too narrow to pass),
+    /// kept from touching them by the clearance check alone.
+    pub squeeze_until: f64,
     pub should_despawn: bool,
     pub passability: LightColor,
     /// That light makes it stop: red, or a yellow it is not committed to.
@@ -298,6 +302,16 @@ impl Vehicle {
             length: self.length,
             off_centreline,
         }
+    }
+
+    /// Gridlock breaking has let it squeeze past bodies beside its way.
+    pub fn has_squeezed(&self) -> bool {
+        self.squeeze_until.is_finite()
+    }
+
+    /// It squeezes past bodies beside its way at this simulated time.
+    pub fn is_squeezing(&self, time: f64) -> bool {
+        self.squeeze_until > time
     }
 
     /// Unit heading, kept in step with `pose.yaw` by the Control step.

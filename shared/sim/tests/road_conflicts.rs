@@ -245,3 +245,97 @@ fn two_trucks_each_nearer_to_one_of_two_zones_do_not_wait_for_each_other() {
         }
     }
 }
+
+/// A bend of a narrow two-way street, each way on its half (a two-way
+/// lanelet of Lanelet2's example map, `mapping_example.osm`, lanelets 45484
+/// and 45542, and their halves the other way): too narrow, by the road
+/// conflicts' reckoning, for a car on the bend beside a car on the straight.
+fn narrow_two_way_bend() -> trafficmesh_model::MapFile {
+    let with_width = |mut lane: Value, width: f64| {
+        lane["width"] = json!(width);
+        lane
+    };
+    unmarked_map(vec![
+        with_width(
+            lane(
+                "east_in",
+                &[[5.3, 332.2], [-2.4, 324.4], [-10.9, 317.3]],
+                &["east_bend"],
+            ),
+            3.45,
+        ),
+        with_width(
+            lane(
+                "east_bend",
+                &[[-10.9, 317.3], [-11.2, 312.2], [-8.0, 308.2], [-3.4, 305.8]],
+                &["east_narrow"],
+            ),
+            3.57,
+        ),
+        with_width(
+            lane("east_narrow", &[[-3.4, 305.8], [3.5, 303.9]], &["east_out"]),
+            2.85,
+        ),
+        with_width(
+            lane(
+                "east_out",
+                &[[3.5, 303.9], [8.5, 302.4], [60.0, 287.0]],
+                &[],
+            ),
+            2.92,
+        ),
+        with_width(
+            lane(
+                "west_in",
+                &[[60.0, 290.6], [9.8, 305.1], [4.5, 306.6]],
+                &["west_narrow"],
+            ),
+            2.92,
+        ),
+        with_width(
+            lane(
+                "west_narrow",
+                &[[4.5, 306.6], [-2.7, 308.6]],
+                &["west_bend"],
+            ),
+            2.85,
+        ),
+        with_width(
+            lane(
+                "west_bend",
+                &[[-2.7, 308.6], [-5.6, 311.0], [-7.8, 314.1], [-7.1, 317.9]],
+                &["west_out"],
+            ),
+            3.57,
+        ),
+        with_width(
+            lane(
+                "west_out",
+                &[[-7.1, 317.9], [0.8, 324.6], [8.6, 331.6]],
+                &[],
+            ),
+            3.45,
+        ),
+    ])
+}
+
+#[test]
+fn two_cars_meeting_on_a_narrow_two_way_bend_squeeze_past_each_other() {
+    // As met in random traffic on the Lanelet2 example map: one car standing
+    // on the bend, the other on the straight just after it the other way.
+    // Each judges the other's body too near to pass and waits for it: a
+    // gridlock of two. Their bodies do pass (0.9 m apart on the straight),
+    // and as drivers inch past each other they go by, kept apart by their
+    // bodies alone, with no jam resolution.
+    let mut w = world(&narrow_two_way_bend(), WorldConfig::default());
+    let east = w.place_vehicle("Taxi", "east_bend", 12.3, 0.0).unwrap();
+    let west = w
+        .place_vehicle("Hatchback", "west_narrow", 3.0, 0.0)
+        .unwrap();
+    both_get_through(
+        &mut w,
+        "face-off",
+        [(east, "east_out"), (west, "west_out")],
+        5.0,
+    );
+}

@@ -51,6 +51,9 @@ const JUNCTION_APPROACH: f64 = 10.0;
 /// checked on the open road too: on a bend the chord it is drawn as leaves
 /// its lane (a truck beside another), metres.
 const LANE_SPARE: f64 = 0.5;
+/// What a vehicle squeezing past bodies beside its way keeps from them at
+/// the least, metres: room for its drawn pose settling on its chord.
+const SQUEEZE_MARGIN: f64 = 0.1;
 /// A body this far behind the rear is left behind, metres.
 const BEHIND: f64 = 1.0;
 /// Halvings of the tick's reach to find where the way first comes too near.
@@ -62,16 +65,17 @@ const SLACK: f64 = 1e-6;
 pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
     let v = &snap.vehicles[i];
     let own = snap.bodies.body(i);
-    if on_open_road(snap, v, own) {
-        return None;
-    }
     let reach_out = own.swing + MARGIN;
     let (lo, hi) = own.obb.bounds();
+    let out = DVec2::splat(reach_out);
+    if on_open_road(snap, v, own) && !snap.bodies.squeezed_near(lo - out, hi + out) {
+        return None;
+    }
     let rear = own.obb.centre.dot(own.obb.axis) - own.obb.half_length - BEHIND;
     let body = Shape::body(&own.obb);
+    let squeezing = v.is_squeezing(snap.time);
     let mut sweep: Option<Shape> = None;
     let mut nearest: Option<(Blocked, u64)> = None;
-    let out = DVec2::splat(reach_out);
     snap.bodies.for_each_near(lo - out, hi + out, |j| {
         if j as usize == i {
             return;
@@ -104,7 +108,13 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
         // The one behind keeps a margin (room for the other's way to swing
         // beyond what a tick's travel shows; none for a body standing
         // still), the one ahead only keeps off.
-        let margin = if first { MARGIN.min(other.swing) } else { 0.0 };
+        let margin = if first {
+            MARGIN.min(other.swing)
+        } else if squeezing {
+            SQUEEZE_MARGIN
+        } else {
+            0.0
+        };
         let keep = now.min(margin) - SLACK;
         let sweep = sweep.get_or_insert_with(|| Shape::swept(snap, v, own, own.reach));
         if sweep.keeps(&obstacle, keep) {
@@ -131,7 +141,10 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
     let clear_behind = v.s > v.length + JUNCTION_APPROACH
         || v.behind.latest().is_none_or(|l| !net.lane(l).intersection);
     let lane = net.lane(v.path[0]);
+    // Having squeezed past bodies beside its way, it may stand where no
+    // rule would put it.
     !lane.intersection
+        && !v.has_squeezed()
         && !is_wide(net, v)
         && clear_ahead
         && clear_behind

@@ -65,6 +65,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         v,
         range: needed_lookahead(v.speed, snap.config),
         off_centreline: std::cell::OnceCell::new(),
+        squeezing: v.is_squeezing(snap.time),
     };
     let mut best = FrontObstacle::NONE;
     let on_intersection = net.lane(v.path[0]).intersection;
@@ -83,7 +84,7 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         let ahead = LaneAhead { lane, offset };
         best = best.nearer(search.leader_on(ahead));
         best = best.nearer(search.conflicting_bodies(ahead, best.distance));
-        if net.lane(lane).road_conflicts {
+        if net.lane(lane).road_conflicts && !search.squeezing {
             best = best.nearer(search.nearer_claimant(ahead, best.distance));
         }
         if k >= 1
@@ -157,6 +158,9 @@ struct Search<'a, 'b> {
     /// we need beside our width to pass a body beside our way. Read only for
     /// road conflicts, once.
     off_centreline: std::cell::OnceCell<f64>,
+    /// Let through a gridlock (see [`Vehicle::squeeze_until`]): road
+    /// conflicts hold it nowhere.
+    squeezing: bool,
 }
 
 impl Search<'_, '_> {
@@ -239,7 +243,7 @@ impl Search<'_, '_> {
                 // conflict with our own path is a tight loop: the body is in the way.
                 || (!z.road && v.path.contains(&z.source))
                 // Only road zones are passable; the offset is read for them alone.
-                || (z.road && z.passable(v.body(self.off_centreline())))
+                || (z.road && (self.squeezing || z.passable(v.body(self.off_centreline()))))
             {
                 continue;
             }
@@ -334,6 +338,9 @@ impl Search<'_, '_> {
     /// found in path order), so that an obstacle moved back into an earlier
     /// one moves again, before that one.
     fn clear_of_road_crossings(&self, stop_at: f64) -> f64 {
+        if self.squeezing {
+            return stop_at;
+        }
         let (net, v) = (self.snap.net, self.v);
         let ours = v.body(0.0);
         let mut zones: Vec<(f64, f64)> = Vec::new();

@@ -12,6 +12,7 @@ use glam::DVec2;
 use trafficmesh_model::LightColor;
 
 use super::World;
+use super::squeeze::{self, Squeeze};
 use crate::cognition::deadlock::{self, Wait};
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
@@ -155,25 +156,36 @@ impl World {
             return;
         }
         let patience = GRIDLOCK_PATIENCE.min(timeout);
-        let (net, index, vehicles) = (&self.net, &self.index, &self.vehicles);
-        self.gridlocked = deadlock::gridlocks(vehicles, waits, patience)
-            .into_iter()
-            .filter_map(|cycle| {
-                if tracing::enabled!(tracing::Level::DEBUG) {
-                    tracing::debug!(
-                        "gridlock at {:.0} s: {}",
-                        self.time,
-                        describe_cycle(net, vehicles, waits, &cycle)
-                    );
+        let cycles = deadlock::gridlocks(&self.vehicles, waits, patience);
+        let mut gridlocked = Vec::new();
+        for cycle in cycles {
+            let (net, vehicles) = (&self.net, &self.vehicles);
+            let squeeze = Squeeze::of(net, vehicles, waits, &cycle, self.time, patience);
+            if tracing::enabled!(tracing::Level::DEBUG) {
+                tracing::debug!(
+                    "gridlock at {:.0} s ({squeeze:?}): {}",
+                    self.time,
+                    describe_cycle(net, vehicles, waits, &cycle)
+                );
+            }
+            match squeeze {
+                Squeeze::UnderWay => {}
+                Squeeze::Begin => {
+                    for &i in &cycle {
+                        self.vehicles[i].squeeze_until = self.time + squeeze::SQUEEZE_TIME;
+                    }
                 }
-                cycle
-                    .into_iter()
-                    .map(|i| &vehicles[i])
-                    .filter(|v| is_jammed_head(net, index, v))
-                    .map(|v| v.id)
-                    .min()
-            })
-            .collect();
+                Squeeze::Failed | Squeeze::Pointless => gridlocked.extend(
+                    cycle
+                        .into_iter()
+                        .map(|i| &vehicles[i])
+                        .filter(|v| is_jammed_head(net, &self.index, v))
+                        .map(|v| v.id)
+                        .min(),
+                ),
+            }
+        }
+        self.gridlocked = gridlocked;
     }
 
     /// Vehicle `i` moved to `lane` would touch no other body. The spawn check

@@ -10,6 +10,7 @@ mod phases;
 mod red_lights;
 mod regroup;
 mod spawning;
+mod squeeze;
 mod step;
 mod walkers;
 

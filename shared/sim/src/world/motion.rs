@@ -8,6 +8,7 @@ use trafficmesh_model::NpcVehicleConfig;
 use super::World;
 use super::follow::{Follow, Followed};
 use super::red_lights::{RedLightCrossing, crossed_on_red};
+use super::squeeze::SQUEEZE_SPEED;
 use crate::cognition::Perception;
 use crate::cognition::curve::is_turning;
 use crate::cognition::right_of_way::RowInfo;
@@ -132,7 +133,13 @@ fn move_vehicle(
     v.speed_mode = mode;
     // One lookup of the lane's limit for the speed step and the trip's time loss.
     let limit = speed_limit(net, v, config);
-    step_speed(net, v, config, &stops, limit, dt);
+    // Squeezing past bodies beside its way, it inches past them.
+    let allowed = if v.is_squeezing(time) {
+        limit.min(SQUEEZE_SPEED)
+    } else {
+        limit
+    };
+    step_speed(net, v, config, &stops, allowed, dt);
     cap_travel(v, s_before, p.travel_cap, dt);
     update_pose(net, v, v.s - s_before);
     update_trip(v, dt, limit);

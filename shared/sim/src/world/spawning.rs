@@ -283,6 +283,7 @@ impl World {
             yield_point: DVec2::ZERO,
             dominating: None,
             forced_through: None,
+            squeeze_until: f64::NEG_INFINITY,
             lane_change: None,
             zebra: ZebraState::default(),
             speed_mode: Default::default(),
