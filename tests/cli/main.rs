@@ -451,6 +451,25 @@ fn sim_check_finds_no_jump_overlap_speeding_or_red_light_crossing_on_real_maps()
     }
 }
 
+/// What a foreign map had that is not simulated, or that was made up for
+/// it, is said on stderr, never silently dropped: a Lanelet2 map's bicycle
+/// lanes and its synthesised signal programs.
+#[test]
+fn sim_names_what_the_map_import_left_out_or_made_up() {
+    let Some(map) = support::shared_map("mapping_example.osm") else {
+        return;
+    };
+    let out = trafficmesh(&["sim", "--map", map.to_str().unwrap(), "--duration", "1"]);
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    for needle in [
+        "warning: 14 lanelet(s) of subtype 'bicycle_lane' not imported",
+        "got a synthesised two-phase program",
+    ] {
+        assert!(stderr.contains(needle), "{needle:?} not in: {stderr}");
+    }
+}
+
 /// The README stays the front door: short, opening with the command that
 /// runs the cluster and the very test command CI runs, naming only
 /// subcommands the binary has and docs files that exist.

@@ -32,20 +32,25 @@ pub fn ego_of(p: &EgoPose) -> Ego {
 }
 
 /// Loads a map (any format), with a SUMO route file's demand in place of the
-/// map's own simulators when one is given, and compiles it; the route
-/// import's warnings come back with it.
+/// map's own simulators when one is given, and compiles it; the map
+/// import's warnings (what a foreign format had that is not simulated, or
+/// was made up) and the route import's come back with it.
 pub fn load_network_with_routes(
     map: &std::path::Path,
     routes: Option<&std::path::Path>,
 ) -> Result<(LaneNetwork, Vec<String>), FileError> {
+    let trafficmesh_maps::Imported {
+        map: mut file,
+        mut warnings,
+    } = trafficmesh_maps::import_map(map)?;
     let Some(routes) = routes else {
-        return Ok((load_network(map)?, Vec::new()));
+        return Ok((build_network(&file, map)?, warnings));
     };
-    let mut file = trafficmesh_maps::load_map(map)?;
     let demand = trafficmesh_maps::load_routes(routes, &file)?;
     file.traffic_simulators = vec![demand.simulator];
     file.vehicle_kinds.extend(demand.kinds);
-    Ok((build_network(&file, routes)?, demand.warnings))
+    warnings.extend(demand.warnings);
+    Ok((build_network(&file, routes)?, warnings))
 }
 
 /// Compiles a map read from `path` into the simulation's lane network, with
