@@ -41,6 +41,8 @@ pub struct StepperStatus {
     pub jam_removals: u64,
     /// Of those, the ones moved to break a gridlock before the timeout.
     pub gridlocks_broken: u64,
+    /// Gridlocks let squeeze past bodies beside their way first.
+    pub gridlocks_squeezed: u64,
     /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
     pub red_light_crossings: u64,
     pub batches_dropped: u64,

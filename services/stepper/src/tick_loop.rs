@@ -142,6 +142,7 @@ pub fn run(
             s.jam_resolutions = waits.jam_resolutions;
             s.jam_removals = waits.jam_removals;
             s.gridlocks_broken = waits.gridlocks_broken;
+            s.gridlocks_squeezed = waits.gridlocks_squeezed;
             s.red_light_crossings = world.red_light_crossings();
             s.batches_dropped = outputs.dropped.load(Ordering::Relaxed);
             s.crosswalks_stale = world.occupancy().is_stale();

@@ -338,4 +338,5 @@ fn two_cars_meeting_on_a_narrow_two_way_bend_squeeze_past_each_other() {
         [(east, "east_out"), (west, "west_out")],
         5.0,
     );
+    assert_eq!(w.wait_stats().gridlocks_squeezed, 1, "they squeezed past");
 }

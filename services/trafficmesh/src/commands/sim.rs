@@ -130,6 +130,8 @@ struct Summary {
     jam_removals: u64,
     /// Of those, the ones moved to break a gridlock before the timeout.
     gridlocks_broken: u64,
+    /// Gridlocks let squeeze past bodies beside their way first.
+    gridlocks_squeezed: u64,
     /// Front bumpers that went 0.5 m past a stop line more than 0.5 s into red.
     red_light_crossings: u64,
     branch_decisions: u64,
@@ -333,6 +335,7 @@ pub fn run(a: SimArgs) -> Result<()> {
         jam_resolutions: waits.jam_resolutions,
         jam_removals: waits.jam_removals,
         gridlocks_broken: waits.gridlocks_broken,
+        gridlocks_squeezed: waits.gridlocks_squeezed,
         red_light_crossings: world.red_light_crossings(),
         branch_decisions: world.branch_stats().map_or(0, |s| s.total()),
         trajectory_hash: format!("{:016x}", world.trajectory_hash()),

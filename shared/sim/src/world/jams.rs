@@ -47,6 +47,9 @@ pub struct WaitStats {
     pub jam_removals: u64,
     /// Of those, the ones moved to break a gridlock before the timeout.
     pub gridlocks_broken: u64,
+    /// Gridlocks whose members were let squeeze past bodies beside their
+    /// way (see [`Squeeze`]), whether or not that freed them.
+    pub gridlocks_squeezed: u64,
     /// The longest standstill any vehicle has had so far, seconds.
     pub max_wait: f64,
     /// The stuck vehicles counted at the start of each simulated minute so
@@ -171,6 +174,7 @@ impl World {
             match squeeze {
                 Squeeze::UnderWay => {}
                 Squeeze::Begin => {
+                    self.wait_stats.gridlocks_squeezed += 1;
                     for &i in &cycle {
                         self.vehicles[i].squeeze_until = self.time + squeeze::SQUEEZE_TIME;
                     }
