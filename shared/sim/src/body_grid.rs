@@ -113,9 +113,14 @@ impl BodyGrid {
         self.cells.rebuild(self.key_count, &self.items);
     }
 
-    /// Does a body that has squeezed past others reach into the box from
-    /// `lo` to `hi`?
-    pub fn squeezed_near(&self, lo: DVec2, hi: DVec2) -> bool {
+    /// Does a body that has squeezed past others come within `reach` of
+    /// `body`'s bounds? (None has, nearly always: then no bounds are taken.)
+    pub fn squeezed_near(&self, body: &BodyBox, reach: f64) -> bool {
+        if self.squeezed.is_empty() {
+            return false;
+        }
+        let (lo, hi) = body.obb.bounds();
+        let (lo, hi) = (lo - DVec2::splat(reach), hi + DVec2::splat(reach));
         self.squeezed
             .iter()
             .any(|&(l, h)| l.cmple(hi).all() && lo.cmple(h).all())

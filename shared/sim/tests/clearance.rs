@@ -85,15 +85,8 @@ fn a_body_standing_across_the_way_stops_the_vehicle_short_of_it() {
         })),
         WorldConfig::default(),
     );
-    walker_on(&mut w, "Zebra");
-    // Northbound, its front at the zebra's stop point: its body stands
-    // across the eastbound road.
-    let standing = w.place_vehicle("Taxi", "north", 102.5, 0.0).unwrap();
-    let coming = w.place_vehicle("Taxi", "east", 50.0, 10.0).unwrap();
-    run_until(&mut w, 20.0, |w| {
-        assert_no_overlap(w);
-        false
-    });
+    // The northbound body stands across the eastbound road.
+    let (standing, coming) = held_across_the_way(&mut w, "Taxi", 50.0);
     let (s, c) = (vehicle(&w, standing), vehicle(&w, coming));
     assert!(s.speed < 0.01, "the walker holds the northbound car");
     assert!(c.speed < 0.01, "the eastbound car waits");
@@ -102,12 +95,38 @@ fn a_body_standing_across_the_way_stops_the_vehicle_short_of_it() {
         "it drove up to the body, not further back (s {:.1})",
         c.s
     );
-    w.crosswalk_exit("Zebra", "Human_01").unwrap();
-    let crossed = run_until(&mut w, 30.0, |w| {
-        assert_no_overlap(w);
-        w.vehicle(coming).is_none_or(|v| v.front.x > 110.0)
-    });
+    let crossed = goes_on_once_clear(&mut w, coming, 110.0, 30.0);
     assert!(crossed, "it never went on once the crossing was clear");
+}
+
+/// A walker on the zebra holds a `kind` northbound with its front at the
+/// zebra's stop point, its body across the eastbound way; another `kind`
+/// comes eastbound from `from` at 10 m/s. Runs 20 s, no two bodies
+/// overlapping; returns (the one held, the one coming).
+fn held_across_the_way(w: &mut trafficmesh_sim::World, kind: &str, from: f64) -> (u64, u64) {
+    walker_on(w, "Zebra");
+    let standing = w.place_vehicle(kind, "north", 102.5, 0.0).unwrap();
+    let coming = w.place_vehicle(kind, "east", from, 10.0).unwrap();
+    run_until(w, 20.0, |w| {
+        assert_no_overlap(w);
+        false
+    });
+    (standing, coming)
+}
+
+/// The walker leaves the zebra: does `coming` get past x = `past` (or off
+/// the road) within `seconds`, no two bodies overlapping?
+fn goes_on_once_clear(
+    w: &mut trafficmesh_sim::World,
+    coming: u64,
+    past: f64,
+    seconds: f64,
+) -> bool {
+    w.crosswalk_exit("Zebra", "Human_01").unwrap();
+    run_until(w, seconds, |w| {
+        assert_no_overlap(w);
+        w.vehicle(coming).is_none_or(|v| v.front.x > past)
+    })
 }
 
 /// Two lanes 3.2 m wide side by side, bending 20 degrees to the right at
@@ -227,15 +246,9 @@ fn junction_with_a_body_across_it() -> trafficmesh_model::MapFile {
 #[test]
 fn a_wide_body_waits_before_a_junction_whose_way_through_a_standing_body_blocks() {
     let mut w = world(&junction_with_a_body_across_it(), WorldConfig::default());
-    walker_on(&mut w, "Zebra");
-    // Northbound, its front at the zebra's stop point: its body stands
-    // across the eastbound way, 6 m into the eastbound junction.
-    let standing = w.place_vehicle("Truck_2t", "north", 102.5, 0.0).unwrap();
-    let coming = w.place_vehicle("Truck_2t", "east", 40.0, 10.0).unwrap();
-    run_until(&mut w, 20.0, |w| {
-        assert_no_overlap(w);
-        false
-    });
+    // The northbound body stands across the eastbound way, 6 m into the
+    // eastbound junction.
+    let (standing, coming) = held_across_the_way(&mut w, "Truck_2t", 40.0);
     let (s, c) = (vehicle(&w, standing), vehicle(&w, coming));
     assert!(s.speed < 0.01, "the walker holds the northbound truck");
     assert!(c.speed < 0.01, "the eastbound truck waits");
@@ -244,10 +257,6 @@ fn a_wide_body_waits_before_a_junction_whose_way_through_a_standing_body_blocks(
         "it waits at the junction's entry (x = 94), not in the junction up to the body: front at x = {:.1}",
         c.front.x
     );
-    w.crosswalk_exit("Zebra", "Human_01").unwrap();
-    let through = run_until(&mut w, 60.0, |w| {
-        assert_no_overlap(w);
-        w.vehicle(coming).is_none_or(|v| v.front.x > 120.0)
-    });
+    let through = goes_on_once_clear(&mut w, coming, 120.0, 60.0);
     assert!(through, "it goes on once the body has gone");
 }

@@ -66,11 +66,11 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
     let v = &snap.vehicles[i];
     let own = snap.bodies.body(i);
     let reach_out = own.swing + MARGIN;
-    let (lo, hi) = own.obb.bounds();
-    let out = DVec2::splat(reach_out);
-    if on_open_road(snap, v, own) && !snap.bodies.squeezed_near(lo - out, hi + out) {
+    if on_open_road(snap, v, own) && !snap.bodies.squeezed_near(own, reach_out) {
         return None;
     }
+    let (lo, hi) = own.obb.bounds();
+    let out = DVec2::splat(reach_out);
     let rear = own.obb.centre.dot(own.obb.axis) - own.obb.half_length - BEHIND;
     let body = Shape::body(&own.obb);
     let squeezing = v.is_squeezing(snap.time);
