@@ -408,3 +408,90 @@ fn the_references_drivers_keep_their_lane_behind_a_red_arrow() {
         assert_eq!(lane_of(&w, id), "a1", "vehicle {id} left its lane");
     }
 }
+
+/// `shared_left_lane` with its arrow red for good and a1 full of left
+/// turners standing at it, bumper to bumper back to s = 119: no gap there.
+/// Returns the world and the turners' ids.
+fn left_lane_held_by_a_red_arrow(seed: u64) -> (World, Vec<u64>) {
+    let config = WorldConfig {
+        seed,
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model: trafficmesh_model::DriverModel::Realistic(Default::default()),
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    // A left turn, which a0's own way (straight on) is not.
+    let mut map = serde_json::to_value(shared_left_lane()).unwrap();
+    for l in map["lanes"].as_array_mut().unwrap() {
+        if l["name"] == "left" {
+            l["turn_direction"] = json!("left");
+        }
+    }
+    let mut w = world(&serde_json::from_value(map).unwrap(), config);
+    w.set_light("ARROW", LightControl::Forced(LightColor::Red))
+        .unwrap();
+    let turners = (0..11)
+        .map(|k| {
+            let s = 199.0 - 8.0 * k as f64;
+            w.place_vehicle_on_route("Taxi", &["a1", "left", "n"], s, 0.0)
+                .unwrap()
+        })
+        .collect();
+    (w, turners)
+}
+
+#[test]
+fn a_driver_without_a_route_gives_up_a_turn_it_finds_no_gap_for_and_goes_on_its_own_way() {
+    let mut gave_up = 0;
+    for seed in 0..12 {
+        let (mut w, turners) = left_lane_held_by_a_red_arrow(seed);
+        let id = w.place_vehicle("Taxi", "a0", 150.0, 0.0).unwrap();
+        w.step();
+        if vehicle(&w, id).lane_change.is_none() {
+            continue; // It chose straight on: nothing to give up.
+        }
+        // It waits at a0's end for a gap on a1 that never opens, then goes
+        // straight on, the way a0 itself leads, and leaves the map.
+        let mut waited_from = None;
+        let gone = run_until(&mut w, 120.0, |w| {
+            assert!(
+                overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+                "seed {seed}: overlap at t={:.2}",
+                w.time()
+            );
+            let Some(v) = w.vehicle(id) else {
+                return true;
+            };
+            let lane = &w.network().lane(v.path[0]).name;
+            assert!(lane != "a1" && lane != "left", "seed {seed}: on {lane}");
+            if v.speed == 0.0 && lane == "a0" {
+                waited_from.get_or_insert(w.time());
+            }
+            false
+        });
+        assert!(gone, "seed {seed}: still on the map after 120 s");
+        let waited = w.time() - waited_from.expect("it stood at a0's end");
+        assert!(
+            waited > 45.0,
+            "seed {seed}: gave up after {waited:.1} s, before 45 s of waiting"
+        );
+        for t in turners {
+            assert_eq!(lane_of(&w, t), "a1", "seed {seed}: the arrow stays red");
+        }
+        gave_up += 1;
+    }
+    assert!(gave_up > 0, "no seed chose the left turn from a0");
+}
+
+#[test]
+fn a_routed_vehicle_keeps_waiting_for_its_gap() {
+    let (mut w, _) = left_lane_held_by_a_red_arrow(0);
+    let id = w
+        .place_vehicle_on_route("Taxi", &["a0", "left", "n"], 150.0, 0.0)
+        .unwrap();
+    run_for(&mut w, 120.0);
+    let v = vehicle(&w, id);
+    assert_eq!(lane_of(&w, id), "a0", "SUMO's routes are kept");
+    assert!(v.lane_change.is_some(), "still waiting to move across");
+}

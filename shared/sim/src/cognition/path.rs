@@ -180,6 +180,44 @@ pub fn extend_path(
     }
 }
 
+/// Seconds a driver without a route stands at its lane's end waiting for a
+/// gap on the lane beside before it gives that turn up and goes on the way
+/// its own lane leads: a driver who cannot get into the turning lane drives
+/// round the block, and does not hold up the lane it stands on for ever.
+const GIVE_UP_TURN_AFTER: f64 = 45.0;
+/// A driver this near its lane's end, metres, waits there for its gap.
+const AT_LANE_END: f64 = 10.0;
+
+/// Has vehicle `v` waited at its lane's end long enough for a gap it will not
+/// get, on a lane that goes on somewhere open to it? Routed vehicles keep
+/// their route (SUMO's: the jam timeout moves them), and where the lane ends
+/// the change is the only way on.
+pub fn gives_up_turn(net: &LaneNetwork, v: &Vehicle) -> bool {
+    v.lane_change.is_some()
+        && v.route.is_none()
+        && v.trip.wait >= GIVE_UP_TURN_AFTER
+        && net.lane(v.path[0]).length() - v.s < AT_LANE_END
+        && net
+            .lane(v.path[0])
+            .next
+            .iter()
+            .any(|&n| net.allows(n, v.kind))
+}
+
+/// Drops the way planned past the vehicle's lane and chooses again among the
+/// ways the lane itself goes on (no lane change), as [`extend_path`] does;
+/// returns the choice made, if it was one between branches.
+pub fn give_up_turn(
+    net: &LaneNetwork,
+    policy: &BranchPolicy,
+    v: &mut Vehicle,
+) -> Option<BranchChoice> {
+    v.path.truncate(1);
+    v.path_length = net.lane(v.path[0]).length();
+    v.first_junction_lane = first_junction_lane(net, &v.path);
+    extend_path(net, policy, v, false).ok().flatten()
+}
+
 /// The junction lanes after the siblings of road lane `last` that turn a way
 /// none of `own` does and that the vehicle may use, one per way.
 fn other_turns(net: &LaneNetwork, v: &Vehicle, last: LaneId, own: &[LaneId]) -> Vec<LaneId> {

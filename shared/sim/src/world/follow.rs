@@ -10,7 +10,7 @@ use trafficmesh_model::NpcVehicleConfig;
 
 use super::World;
 use crate::branching::{BranchChoice, BranchPolicy};
-use crate::cognition::path::advance_and_extend;
+use crate::cognition::path::{advance_and_extend, give_up_turn, gives_up_turn};
 use crate::cognition::right_of_way::{JunctionBuckets, Member, RowInfo};
 use crate::events::{DespawnReason, SimEvent};
 use crate::lane_change;
@@ -175,6 +175,9 @@ fn follow_lanes_of(
         return made;
     }
     let before = (v.path[0], v.path.get(1).copied());
+    if gives_up_turn(net, v) {
+        made.extend(give_up_turn(net, policy, v));
+    }
     advance_and_extend(net, policy, v, motion, &mut made);
     if before != (v.path[0], v.path.get(1).copied()) {
         lane_change::refresh_first_lanes(net, v);
