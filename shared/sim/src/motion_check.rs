@@ -82,7 +82,7 @@ pub struct MotionCheck {
     pub jumps: Tally,
     /// Headings that turned faster than a car can.
     pub turns: Tally,
-    /// Pairs of bodies that overlap.
+    /// Pairs of bodies that overlap (value: how deep, metres).
     pub overlaps: Tally,
     /// Speeds over the lane's limit (or the fixed limit in force).
     pub speeding: Tally,
@@ -151,7 +151,12 @@ impl MotionCheck {
         }
         for (a, b) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
             let (va, vb) = (&world.vehicles()[a], &world.vehicles()[b]);
-            self.overlaps.add(finding(va, Some(vb.id), 1.0, 0.0));
+            // How deep the shrunk footprints reach into each other.
+            let depth = -va
+                .drawn_box(OVERLAP_MARGIN)
+                .separation(&vb.drawn_box(OVERLAP_MARGIN));
+            self.overlaps
+                .add(finding(va, Some(vb.id), depth.max(0.0), 0.0));
         }
     }
 }
@@ -242,6 +247,13 @@ mod tests {
         w.place_vehicle("Taxi", &lane, 32.0, limit + 5.0).unwrap();
         check.observe(&w);
         assert_eq!((check.overlaps.count, check.overlaps.distinct), (1, 1));
+        // Two metres apart on one lane: the shortest way out is sideways, a
+        // whole shrunk width (1.94 - 2 x 0.1).
+        assert!(
+            (check.overlaps.max_excess - 1.74).abs() < 1e-9,
+            "depth {}",
+            check.overlaps.max_excess
+        );
         assert_eq!(check.speeding.count, 1);
         assert!((check.speeding.max_excess - 5.0).abs() < 1e-9);
     }
