@@ -291,6 +291,7 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
     MapFile {
         conflicts_outside_junctions: false,
         vehicle_kinds: Vec::new(),
+        intersections: Vec::new(),
         format: MAP_FORMAT.to_string(),
         name: format!("grid {n}x{n}, {} m blocks", o.block),
         lanes,

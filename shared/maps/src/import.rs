@@ -78,6 +78,7 @@ pub fn assemble(
             traffic_simulators,
             conflicts_outside_junctions,
             vehicle_kinds: Vec::new(),
+            intersections: Vec::new(),
         },
         warnings,
     }

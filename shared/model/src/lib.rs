@@ -18,8 +18,8 @@ pub use catalog::{VehicleKind, builtin_kind};
 pub use driver_model::{DriverModel, IdmParams};
 pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};
 pub use map::{
-    CrosswalkArea, CrosswalkDef, DepartureDef, LaneDef, LightGroupDef, LightProgram, MapFile,
-    MapProblem, SimulatorDef, ZebraConfigDef,
+    CrosswalkArea, CrosswalkDef, DepartureDef, IntersectionController, IntersectionDef, LaneDef,
+    LightGroupDef, LightProgram, MapFile, MapProblem, SimulatorDef, ZebraConfigDef,
 };
 pub use spawn_config::{
     BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig,

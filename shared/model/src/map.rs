@@ -152,6 +152,30 @@ pub struct LightGroupDef {
     pub program: LightProgram,
 }
 
+/// How an intersection lets vehicles through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, Default)]
+#[serde(rename_all = "lowercase")]
+pub enum IntersectionController {
+    /// Its lanes' light groups.
+    #[default]
+    Lights,
+    /// Right of way, its lanes' light groups ignored.
+    Priority,
+    /// Ways through granted one by one, none overlapping another in space
+    /// and time (autonomous intersection management); its lanes' light
+    /// groups and right of way ignored.
+    Reservation,
+}
+
+/// The controller of one intersection: the junction that `lane`, one of
+/// its intersection lanes, belongs to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct IntersectionDef {
+    pub lane: String,
+    pub controller: IntersectionController,
+}
+
 /// The area a crosswalk covers on the ground.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "shape", rename_all = "lowercase", deny_unknown_fields)]
@@ -391,6 +415,10 @@ pub struct MapFile {
     pub light_groups: Vec<LightGroupDef>,
     #[serde(default)]
     pub crosswalks: Vec<CrosswalkDef>,
+    /// Intersections whose control is chosen here rather than by their
+    /// lanes (light groups where they have them, else right of way).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub intersections: Vec<IntersectionDef>,
     #[serde(default)]
     pub zebra_configs: Vec<ZebraConfigDef>,
     #[serde(default)]
@@ -465,6 +493,7 @@ impl MapFile {
         self.validate_lights(&mut p);
         self.validate_crosswalks(&mut p);
         self.validate_simulators(&names, &mut p);
+        self.validate_intersections(&names, &mut p);
         if p.0.is_empty() { Ok(()) } else { Err(p.0) }
     }
 
@@ -565,6 +594,21 @@ impl MapFile {
                 && !groups.contains(g.as_str())
             {
                 p.add(&el, "traffic_light", format!("unknown light group '{g}'"));
+            }
+        }
+    }
+
+    fn validate_intersections(&self, names: &HashMap<String, usize>, p: &mut Problems) {
+        for (i, def) in self.intersections.iter().enumerate() {
+            let el = format!("intersections[{i}]");
+            match names.get(&def.lane.to_lowercase()) {
+                None => p.add(&el, "lane", format!("no lane named '{}'", def.lane)),
+                Some(&k) if !self.lanes[k].intersection => p.add(
+                    &el,
+                    "lane",
+                    format!("lane '{}' is not an intersection lane", def.lane),
+                ),
+                Some(_) => {}
             }
         }
     }

@@ -87,6 +87,22 @@ pub fn step_speed(
     let new_speed = ahead.map_or(new_speed, |a| {
         new_speed.min(a.after_tick.max(v.speed - c.absolute_deceleration * dt))
     });
+    let new_speed = match &mut v.grant {
+        Some(grant) => {
+            let comfortable = match model {
+                DriverModel::Awsim => c.deceleration,
+                DriverModel::Realistic(idm) => idm.decel,
+            };
+            let held = v.distance_to_front < grant.room_needed(comfortable)
+                || v.stops_at_light
+                || v.zebra.is_blocked;
+            let keep = grant.keep_to(new_speed, held);
+            grant.elapsed += dt;
+            grant.travelled += keep * dt;
+            keep
+        }
+        None => new_speed,
+    };
     v.acceleration = (new_speed - v.speed) / dt;
     v.speed = new_speed;
     v.s += v.speed * dt;

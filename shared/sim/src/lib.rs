@@ -35,6 +35,7 @@ pub mod pedestrians;
 pub mod populate;
 mod pose;
 mod prefetch;
+pub mod reservation;
 mod rng;
 pub mod session;
 mod siblings;

@@ -3,7 +3,9 @@
 
 use glam::DVec2;
 use rustc_hash::FxHashMap;
-use trafficmesh_model::map::{CrosswalkArea, MapFile, SimulatorDef};
+use trafficmesh_model::map::{
+    CrosswalkArea, IntersectionController, IntersectionDef, MapFile, SimulatorDef,
+};
 use trafficmesh_model::{
     LightProgram, MapProblem, TurnDirection, VehicleKind, ZebraConfigDef, builtin_kind,
 };
@@ -46,6 +48,9 @@ pub struct Lane {
     pub stop_s: Option<f64>,
     /// The vehicle classes allowed here; empty: all.
     pub vehicle_classes: Vec<String>,
+    /// The reservation intersection (an index into
+    /// [`LaneNetwork::reservation_junctions`]) this junction lane belongs to.
+    pub reservation: Option<u32>,
     /// The lanes of the same road beside this one (see [`crate::siblings`]).
     pub siblings: Vec<LaneId>,
 }
@@ -125,6 +130,48 @@ pub struct Departure {
     pub kind: usize,
 }
 
+/// Sets each listed intersection's controller on its lanes: with `priority`
+/// or `reservation` the light groups of its lanes, and of the lanes leading
+/// into it, no longer apply. Returns the reservation junctions in the map's
+/// order (a junction listed twice counts once, its last controller
+/// winning).
+fn apply_controllers(
+    lanes: &mut [Lane],
+    defs: &[IntersectionDef],
+    by_name: &FxHashMap<String, LaneId>,
+) -> Vec<u32> {
+    let mut chosen: Vec<(u32, IntersectionController)> = Vec::new();
+    for def in defs {
+        let lane = by_name[&def.lane.to_lowercase()] as usize;
+        let Some(junction) = lanes[lane].junction else {
+            continue;
+        };
+        chosen.retain(|&(j, _)| j != junction);
+        chosen.push((junction, def.controller));
+    }
+    let mut reserved = Vec::new();
+    for (junction, controller) in chosen {
+        if controller == IntersectionController::Lights {
+            continue;
+        }
+        let reservation = (controller == IntersectionController::Reservation).then(|| {
+            reserved.push(junction);
+            (reserved.len() - 1) as u32
+        });
+        let members: Vec<usize> = (0..lanes.len())
+            .filter(|&i| lanes[i].junction == Some(junction))
+            .collect();
+        for &i in &members {
+            lanes[i].light = None;
+            lanes[i].reservation = reservation;
+            for p in lanes[i].prev.clone() {
+                lanes[p as usize].light = None;
+            }
+        }
+    }
+    reserved
+}
+
 #[derive(Clone, Debug)]
 pub struct LaneNetwork {
     pub name: String,
@@ -136,6 +183,8 @@ pub struct LaneNetwork {
     /// Vehicle kinds used by the simulators (the built-in catalogue).
     pub kinds: Vec<VehicleKind>,
     pub junction_count: u32,
+    /// The junctions under reservation control, in the map's order.
+    pub reservation_junctions: Vec<u32>,
 }
 
 impl LaneNetwork {
@@ -189,6 +238,7 @@ impl LaneNetwork {
                     conflicts: Vec::new(),
                     road_conflicts: false,
                     vehicle_classes: def.vehicle_classes.clone(),
+                    reservation: None,
                     siblings: Vec::new(),
                 }
             })
@@ -206,6 +256,7 @@ impl LaneNetwork {
         }
         let junction_count =
             find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);
+        let reservation_junctions = apply_controllers(&mut lanes, &map.intersections, &by_name);
 
         // The map's own kinds first, so that their names win over the catalogue's.
         let mut kinds: Vec<VehicleKind> = map.vehicle_kinds.clone();
@@ -331,6 +382,7 @@ impl LaneNetwork {
             simulators,
             kinds,
             junction_count,
+            reservation_junctions,
         })
     }
 

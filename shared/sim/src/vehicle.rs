@@ -253,6 +253,8 @@ pub struct Vehicle {
     pub despawn_reason: Option<crate::events::DespawnReason>,
     pub rng: SimRng,
     pub trip: TripStats,
+    /// The way a reservation intersection granted it, until it is through.
+    pub grant: Option<Box<crate::reservation::Driving>>,
 }
 
 /// Bodies overlap when their footprints shrunk by this on every side do,

@@ -29,6 +29,7 @@ const LAYERS: &[(&str, &[&str])] = &[
             "events",
             "pedestrians",
             "crosswalk_agents",
+            "reservation",
         ],
     ),
     (

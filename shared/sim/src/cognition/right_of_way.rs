@@ -247,6 +247,18 @@ type Hit = Option<(Option<VehicleId>, DVec2)>;
 pub fn next_phase(snap: &Snapshot, i: usize) -> RowDecision {
     let v = &snap.vehicles[i];
     let info = &snap.row[i];
+    // A reservation intersection's grants keep its ways apart, not its rules.
+    if info
+        .junction
+        .is_some_and(|j| snap.net.reservation_junctions.contains(&j))
+    {
+        return RowDecision {
+            phase: YieldPhase::None,
+            point: v.yield_point,
+            lane: None,
+            dominating: None,
+        };
+    }
     let yield_lane = current_yield_lane(snap, v, info);
     let before_internal_junction =
         info.on_intersection && yield_lane.is_some() && v.path.get(1).copied() == yield_lane;

@@ -9,6 +9,7 @@ mod motion;
 mod phases;
 mod red_lights;
 mod regroup;
+mod reservations;
 mod spawning;
 mod squeeze;
 mod step;
@@ -154,6 +155,8 @@ pub struct World {
     gridlocked: Vec<VehicleId>,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
+    /// The reservation intersections, in the network's order.
+    intersections: Vec<crate::reservation::Intersection>,
 }
 
 impl World {
@@ -163,6 +166,7 @@ impl World {
         let occupancy = Occupancy::new(net.crosswalks.len());
         let spawner = SpawnManager::new(&net, config.seed, true);
         let index = LaneIndex::empty(lanes);
+        let intersections = Self::reservation_intersections(&net);
         World {
             net,
             config,
@@ -198,6 +202,7 @@ impl World {
             gridlocked: Vec::new(),
             red_crossing_count: 0,
             walkers: None,
+            intersections,
         }
     }
 

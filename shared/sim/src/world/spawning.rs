@@ -284,6 +284,7 @@ impl World {
             dominating: None,
             forced_through: None,
             squeeze_until: f64::NEG_INFINITY,
+            grant: None,
             lane_change: None,
             zebra: ZebraState::default(),
             speed_mode: Default::default(),

@@ -97,6 +97,7 @@ impl World {
             self.junctions.rebuild(&self.net, &self.row);
         }
         self.phase_times.lap(Phase::LaneChanges);
+        self.reserve_ways();
 
         // This tick's buffers, handed back after the motion step for the next.
         let mut perceptions = std::mem::take(&mut self.perceptions);
