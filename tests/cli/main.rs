@@ -350,6 +350,81 @@ fn bench_saturation_gives_each_models_discharge_rate() {
     assert_eq!(awsim["queued"], 20);
 }
 
+/// The same four-way intersection under fixed-time lights and under
+/// reservations: one row per controller and demand, in the JSON and in the
+/// CSV; reservations keep every body apart and serve the demand with less
+/// delay than the lights.
+#[test]
+fn bench_intersection_compares_reservations_with_lights() {
+    let dir = tempfile::tempdir().unwrap();
+    let csv = dir.path().join("table.csv");
+    let out = trafficmesh(&[
+        "bench",
+        "intersection",
+        "--demand",
+        "300",
+        "--duration",
+        "300",
+        "--csv",
+        csv.to_str().unwrap(),
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: Value = serde_json::from_slice(&out.stdout).expect("stdout is one JSON object");
+    let rows = v["rows"].as_array().expect("rows");
+    let row = |controller: &str| {
+        rows.iter()
+            .find(|r| r["controller"] == controller)
+            .unwrap_or_else(|| panic!("no {controller} row in {v}"))
+    };
+    let (lights, reserved) = (row("lights"), row("reservation"));
+    for r in [lights, reserved] {
+        for field in [
+            "demand_vphpl",
+            "served_vphpl",
+            "mean_delay_s",
+            "p95_delay_s",
+            "collisions",
+        ] {
+            assert!(r[field].is_number(), "{field} in {r}");
+        }
+        assert_eq!(r["demand_vphpl"], 300.0);
+    }
+    assert_eq!(reserved["collisions"], 0, "{reserved}");
+    let served = reserved["served_vphpl"].as_f64().unwrap();
+    assert!(
+        served > 200.0,
+        "reservations served {served} of 300 an hour per lane"
+    );
+    let delay = |r: &Value| r["mean_delay_s"].as_f64().unwrap();
+    assert!(
+        delay(reserved) < delay(lights),
+        "{reserved} against {lights}"
+    );
+    let table = std::fs::read_to_string(&csv).expect("the CSV is written");
+    assert_eq!(table.lines().count(), 3, "a header and two rows: {table}");
+    assert!(
+        table.starts_with(
+            "controller,demand_vphpl,served_vphpl,mean_delay_s,p95_delay_s,collisions"
+        )
+    );
+}
+
+#[test]
+fn bench_intersection_refuses_a_demand_that_is_not_positive() {
+    let out = trafficmesh(&["bench", "intersection", "--demand", "300,-5"]);
+    assert!(!out.status.success());
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("--demand"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// The figures a traffic engineer reads are in the summary.
 #[test]
 fn sim_json_reports_insertion_arrival_waiting_and_jams() {

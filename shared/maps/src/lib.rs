@@ -5,6 +5,7 @@
 
 mod crossing;
 pub mod files;
+pub mod four_way;
 pub mod grid;
 pub mod import;
 mod joints;
@@ -17,6 +18,7 @@ pub use files::{
     FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
     save_spawn_config, write_atomic,
 };
+pub use four_way::{FourWayOptions, four_way_map};
 pub use grid::{GridOptions, grid_map};
 pub use import::{ImportError, Imported};
 pub use sumocfg::{Scenario, SumoConfig, load_scenario, read_sumocfg};

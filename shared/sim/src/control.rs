@@ -89,11 +89,8 @@ pub fn step_speed(
     });
     let new_speed = match &mut v.grant {
         Some(grant) => {
-            let comfortable = match model {
-                DriverModel::Awsim => c.deceleration,
-                DriverModel::Realistic(idm) => idm.decel,
-            };
-            let held = v.distance_to_front < grant.room_needed(comfortable)
+            let margin = crate::reservation::plan::Margins::default().time;
+            let held = v.distance_to_front < grant.room_needed(margin)
                 || v.stops_at_light
                 || v.zebra.is_blocked;
             let keep = grant.keep_to(new_speed, held);

@@ -26,6 +26,10 @@ pub enum BenchCommand {
     /// A queue of 20 cars released by a green light: discharge headway and
     /// saturation flow per lane of a driver model.
     Saturation(super::bench_saturation::SaturationArgs),
+    /// One four-way intersection (three lanes per approach) under fixed-time
+    /// lights and under reservations at the same demands: served vehicles,
+    /// delays, collisions.
+    Intersection(super::bench_intersection::IntersectionArgs),
     /// The traffic service (gRPC): simulate() latency with N concurrent
     /// sessions of 200 actors each, called at 10 Hz as a runtime calls it.
     TrafficService(super::bench_traffic_service::TrafficServiceArgs),
@@ -108,6 +112,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Admin(a) => return super::bench_admin::run(a),
         BenchCommand::VsSumo(a) => return super::bench_vs_sumo::run(a),
         BenchCommand::Saturation(a) => return super::bench_saturation::run(a),
+        BenchCommand::Intersection(a) => return super::bench_intersection::run_bench(a),
         BenchCommand::TrafficService(a) => return super::bench_traffic_service::run(a),
     };
     if a.size == 0 || a.ticks == 0 {

@@ -5,6 +5,7 @@ pub mod bench_admin;
 #[cfg(feature = "bench")]
 pub mod bench_cluster;
 #[cfg(feature = "bench")]
+pub mod bench_intersection;
 pub mod bench_saturation;
 #[cfg(feature = "bench")]
 pub mod bench_traffic_service;

@@ -68,7 +68,7 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
             // A reservation intersection: red at its entry until a way is
             // granted through it.
             let distance = offset + l.stop_s.unwrap_or(0.0);
-            if distance < 0.0 {
+            if distance < 0.0 || distance > crate::reservation::ask_distance(v.speed) {
                 continue;
             }
             let granted = v

@@ -42,6 +42,26 @@ impl Book {
         })
     }
 
+    /// The vehicles holding a rectangle that the plan, asked at `now`,
+    /// meets within `time_margin` of one of its steps.
+    pub fn met_by(&self, now: f64, steps: &[Step], time_margin: f64) -> Vec<VehicleId> {
+        let spread = (time_margin / self.step).ceil() as i64;
+        let mut met: Vec<VehicleId> = steps
+            .iter()
+            .flat_map(|step| {
+                let k = self.slot(now + step.t);
+                self.slots
+                    .range(k - spread..=k + spread)
+                    .flat_map(|(_, held)| held)
+                    .filter(|(_, body)| body.separation(&step.body) <= 0.0)
+                    .map(|(v, _)| *v)
+            })
+            .collect();
+        met.sort_unstable();
+        met.dedup();
+        met
+    }
+
     /// Reserves the plan's rectangles for `vehicle`.
     pub fn reserve(&mut self, vehicle: VehicleId, now: f64, steps: &[Step]) {
         for step in steps {

@@ -8,8 +8,9 @@
 //!
 //! Queue policy, of the vehicles at the head of each approach lane, in the
 //! order they first asked: first come, first served, and when one cannot
-//! get a way the next ones try; a head that has waited
-//! [`PRIORITY_AFTER`] seconds is tried alone until it is granted; while an
+//! get a way the next ones try; once the head has waited
+//! [`PRIORITY_AFTER`] seconds, the next ones are granted only ways that keep
+//! clear of the one it asks for, until it is granted; while an
 //! emergency vehicle waits in a lane, only that lane and the lanes whose
 //! movements never come near its movement are served, until it is granted.
 //!
@@ -30,6 +31,41 @@ use plan::{Approach, Margins, Plan};
 
 /// Seconds the head of the queue waits before it is served alone.
 pub const PRIORITY_AFTER: f64 = 10.0;
+/// The head of an approach lane asks for a way once it is this many
+/// seconds from the intersection at its speed, and at the latest
+/// [`ASK_WITHIN`] metres before it; farther away the entry is no red light
+/// to it yet, so that it comes on at its speed and a way granted at once
+/// costs it nothing.
+pub const ASK_AHEAD: f64 = 4.0;
+pub const ASK_WITHIN: f64 = 60.0;
+
+/// Metres before the intersection within which a vehicle at `speed` asks.
+pub fn ask_distance(speed: f64) -> f64 {
+    ASK_WITHIN.max(ASK_AHEAD * speed)
+}
+
+/// Metres of the lane after a movement that its path goes on over: ways
+/// that merge into one exit are kept apart there too, where the driver
+/// model takes over again and keeps its own headway.
+pub const EXIT_REACH: f64 = 30.0;
+
+/// The points of the lane after intersection lane `lane` (its only one, or
+/// none where it has several) up to [`EXIT_REACH`] along it, after its first.
+fn exit_points(net: &LaneNetwork, lane: LaneId) -> Vec<glam::DVec2> {
+    let [exit] = net.lane(lane).next[..] else {
+        return Vec::new();
+    };
+    let line = &net.lane(exit).line;
+    let reach = EXIT_REACH.min(line.length());
+    let mut points: Vec<_> = line
+        .points()
+        .skip(1)
+        .take_while(|p| line.project(*p) < reach)
+        .collect();
+    points.push(line.point_at(reach).0);
+    points
+}
+
 /// Paths sampled every this many metres to find which movements meet.
 const MEETING_SAMPLE: f64 = 0.5;
 /// Seconds of reservations kept behind the present (a vehicle a little late
@@ -116,11 +152,18 @@ impl Driving {
     /// for its rectangles are reserved for those times, never faster; slower
     /// only where the driver must stop or brake for something (`held`: a
     /// body ahead nearer than [`Driving::room_needed`], a red light, a
-    /// crosswalk in use), as the driver model says; the plan's time margin
-    /// takes up the delay.
+    /// crosswalk in use), as the driver model says.
     pub fn keep_to(&self, model: f64, held: bool) -> f64 {
         let planned = self.speed();
         if held { model.min(planned) } else { planned }
+    }
+
+    /// The room ahead a granted vehicle needs to drive its plan: what the
+    /// time margin leaves behind a body ahead that keeps to its own plan,
+    /// and [`MIN_ROOM`] more. (A body nearer is off its plan, or no
+    /// granted one: the driver model brakes for it.)
+    pub fn room_needed(&self, time_margin: f64) -> f64 {
+        self.speed() * time_margin + MIN_ROOM
     }
 
     /// How far the plan has driven by now, metres.
@@ -132,24 +175,18 @@ impl Driving {
         done + self.speeds[whole.min(last)] * rest.max(0.0)
     }
 
-    /// Has it fallen so far behind its plan before entering that it would
-    /// come after its rectangles' times (less their margin)?
-    pub fn late(&self, time_margin: f64) -> bool {
-        !self.entered
-            && self.planned_travel() - self.travelled > time_margin * self.speed().max(1.0)
-    }
-
-    /// The room ahead a granted vehicle needs to drive its plan: a
-    /// comfortable stop from the plan's speed now and [`FREE_AHEAD`] more.
-    pub fn room_needed(&self, comfortable: f64) -> f64 {
-        let planned = self.speed();
-        planned * planned / (2.0 * comfortable) + FREE_AHEAD
+    /// Has it fallen behind its plan by more than the time margin (at the
+    /// plan's speed now, or 1 m/s)?
+    pub fn behind_plan(&self, time_margin: f64) -> bool {
+        self.planned_travel() - self.travelled > time_margin * self.speed().max(1.0)
     }
 }
 
-/// Metres beyond a comfortable stop within which a body ahead makes a
-/// granted vehicle brake below its plan.
-pub const FREE_AHEAD: f64 = 10.0;
+/// Metres a granted vehicle keeps at least from a body ahead, beside the
+/// time margin's room: under the 3 m two rectangles' end margins keep
+/// between two bodies on their plans, so that a follower on its plan does
+/// not brake for a leader on its own.
+pub const MIN_ROOM: f64 = 2.0;
 
 /// A vehicle waiting for a way, since it first asked.
 #[derive(Clone, Copy, Debug)]
@@ -180,7 +217,8 @@ impl Intersection {
             .filter(|&l| net.lane(l).junction == Some(junction))
             .map(|l| {
                 let lane = net.lane(l);
-                let points: Vec<_> = lane.line.points().collect();
+                let mut points: Vec<_> = lane.line.points().collect();
+                points.extend(exit_points(net, l));
                 Movement {
                     lane: l,
                     from: lane.prev.clone(),
@@ -241,6 +279,38 @@ impl Intersection {
         lanes
     }
 
+    /// Vehicle `id`, inside and behind its plan, is planned again from where
+    /// it is: its rectangles then say where it will be. Reserved whatever
+    /// they meet (it is inside and must get out); returns the new grant and
+    /// the vehicles whose grants its new rectangles meet (those not yet
+    /// inside are to give theirs back; the clearance check keeps the others
+    /// apart).
+    pub fn replan(
+        &mut self,
+        id: VehicleId,
+        now: f64,
+        approach: Approach,
+    ) -> Option<(&Grant, Vec<VehicleId>)> {
+        let lane = self.granted.get(&id)?.lane;
+        let m = self.movement(lane)?;
+        let plan = plan::plan(&self.movements[m].path, &approach, &self.margins)?;
+        self.book.release(id);
+        let met = self.book.met_by(now, &plan.steps, self.margins.time);
+        self.book.reserve(id, now, &plan.steps);
+        let grant = Grant {
+            at: now,
+            lane,
+            plan,
+            step: self.margins.step,
+        };
+        self.granted.insert(id, grant);
+        Some((self.granted.get(&id)?, met))
+    }
+
+    pub fn margins(&self) -> &Margins {
+        &self.margins
+    }
+
     /// Keeps the grants of the vehicles `holds` says still hold theirs.
     pub fn retain_granted(&mut self, holds: impl Fn(VehicleId) -> bool) {
         let gone: Vec<VehicleId> = self
@@ -254,7 +324,15 @@ impl Intersection {
         }
     }
 
-    /// Vehicle `id` has left the intersection (or the map): its grant and
+    /// Vehicle `id` is through: its grant goes, its rectangles stay until
+    /// their time has passed (those on the exit keep the next ones apart
+    /// from it there).
+    pub fn finish(&mut self, id: VehicleId) {
+        self.granted.remove(&id);
+        self.waiting.retain(|w| w.request.vehicle != id);
+    }
+
+    /// Vehicle `id` gives its way back (or left the map): its grant and
     /// rectangles go.
     pub fn release(&mut self, id: VehicleId) {
         if self.granted.remove(&id).is_some() {
@@ -269,7 +347,13 @@ impl Intersection {
     pub fn decide(&mut self, now: f64, requests: &[Request]) -> Vec<VehicleId> {
         self.book.expire(now, KEEP_BEHIND);
         self.update_queue(now, requests);
-        let served = self.served(now);
+        let served = self.served();
+        let prioritised = self
+            .waiting
+            .first()
+            .is_some_and(|head| now - head.since >= PRIORITY_AFTER);
+        // The way a prioritised head was refused, kept clear for it.
+        let mut kept_clear: Option<Book> = None;
         let mut granted = Vec::new();
         for k in served {
             let Waiting { request, .. } = self.waiting[k];
@@ -280,7 +364,16 @@ impl Intersection {
             else {
                 continue;
             };
-            if !self.book.is_clear(now, &plan.steps, self.margins.time) {
+            let clear = self.book.is_clear(now, &plan.steps, self.margins.time)
+                && kept_clear
+                    .as_ref()
+                    .is_none_or(|b| b.is_clear(now, &plan.steps, self.margins.time));
+            if !clear {
+                if k == 0 && prioritised {
+                    let mut book = Book::new(self.margins.step);
+                    book.reserve(request.vehicle, now, &plan.steps);
+                    kept_clear = Some(book);
+                }
                 continue;
             }
             self.book.reserve(request.vehicle, now, &plan.steps);
@@ -325,7 +418,7 @@ impl Intersection {
     }
 
     /// The waiting vehicles to try this round, in queue order.
-    fn served(&self, now: f64) -> Vec<usize> {
+    fn served(&self) -> Vec<usize> {
         let all = 0..self.waiting.len();
         if let Some(e) = self.waiting.iter().find(|w| w.request.emergency) {
             let lane = e.request.from;
@@ -347,10 +440,7 @@ impl Intersection {
                 })
                 .collect();
         }
-        match self.waiting.first() {
-            Some(head) if now - head.since >= PRIORITY_AFTER => vec![0],
-            _ => all.collect(),
-        }
+        all.collect()
     }
 }
 

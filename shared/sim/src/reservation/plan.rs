@@ -25,8 +25,11 @@ pub struct Approach {
 /// Margins of the reserved rectangles and the integration step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Margins {
-    /// Added to the body on every side, metres.
+    /// Added to the body on each side, metres.
     pub space: f64,
+    /// Added to the body at each end, metres: two bodies on their plans
+    /// keep twice this between them, room for a driver's standstill gap.
+    pub along: f64,
     /// A rectangle also holds the slots this many seconds before and after
     /// its own, seconds.
     pub time: f64,
@@ -38,6 +41,7 @@ impl Default for Margins {
     fn default() -> Self {
         Margins {
             space: 0.5,
+            along: 1.5,
             time: 0.5,
             step: 0.1,
         }
@@ -46,7 +50,7 @@ impl Default for Margins {
 
 /// The longest way through that is planned, seconds: a vehicle slower than
 /// that asks again when it is nearer or faster.
-pub const HORIZON: f64 = 30.0;
+pub const HORIZON: f64 = 60.0;
 
 /// One step of the plan: the body, and the front's place and speed.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,7 +87,7 @@ pub fn plan(path: &Polyline, a: &Approach, m: &Margins) -> Option<Plan> {
                 t,
                 s,
                 speed,
-                body: body_at(path, s, a, m.space),
+                body: body_at(path, s, a, m),
             });
         }
         // Forward Euler: the place moves at this step's speed.
@@ -98,11 +102,14 @@ pub fn plan(path: &Polyline, a: &Approach, m: &Margins) -> Option<Plan> {
 }
 
 /// The body with its front `s` along the path, on the chord to its back
-/// (beyond the ends, along the end segments), `margin` larger all round.
-pub fn body_at(path: &Polyline, s: f64, a: &Approach, margin: f64) -> Obb {
+/// (beyond the ends, along the end segments), larger by the margins.
+pub fn body_at(path: &Polyline, s: f64, a: &Approach, m: &Margins) -> Obb {
     let front: DVec2 = path.point_at(s).0;
     let back: DVec2 = path.point_at(s - a.length).0;
-    Obb::on_chord(back, front, (a.length, a.width), -margin)
+    let mut body = Obb::on_chord(back, front, (a.length, a.width), 0.0);
+    body.half_length += m.along;
+    body.half_width += m.space;
+    body
 }
 
 #[cfg(test)]
@@ -125,7 +132,7 @@ mod tests {
     }
 
     #[test]
-    fn a_car_at_the_limit_crosses_at_it_and_its_body_is_larger_by_the_margin() {
+    fn a_car_at_the_limit_crosses_at_it_and_its_body_is_larger_by_the_margins() {
         let steps = plan(&straight(20.0), &car(5.0, 10.0), &Margins::default())
             .unwrap()
             .steps;
@@ -135,8 +142,14 @@ mod tests {
         assert!((first.t - 0.6).abs() < 1e-9, "first step at {}", first.t);
         assert!(last.t < 2.9 && last.t > 2.7, "last step at {}", last.t);
         assert!(steps.iter().all(|s| s.speed == 10.0));
-        assert!((first.body.half_length - 2.5).abs() < 1e-9);
-        assert!((first.body.half_width - 1.5).abs() < 1e-9);
+        assert!(
+            (first.body.half_length - 3.5).abs() < 1e-9,
+            "2 + 1.5 at each end"
+        );
+        assert!(
+            (first.body.half_width - 1.5).abs() < 1e-9,
+            "1 + 0.5 on each side"
+        );
     }
 
     #[test]

@@ -3,17 +3,13 @@
 //! gives its way back, and the head of each approach lane near one asks for
 //! a way. Serial, in id order (the intersections' queues order the rest).
 
-use rustc_hash::FxHashMap;
+use rustc_hash::FxHashSet;
 use trafficmesh_model::{DriverModel, SpeedLimitSource};
 
 use super::World;
 use crate::reservation::plan::{Approach, Margins};
 use crate::reservation::{Driving, Intersection, Request};
 use crate::vehicle::VehicleId;
-
-/// Metres before its intersection within which the head of an approach
-/// lane asks for a way.
-const ASK_WITHIN: f64 = 60.0;
 
 impl World {
     /// The network's reservation intersections, for bodies as wide as its
@@ -51,32 +47,77 @@ impl World {
         }
     }
 
-    /// A vehicle whose rear has left its intersection, whose way no longer
-    /// leads through the lane granted, or that fell behind its plan before
-    /// entering, gives its way back; so do vehicles no longer on the map.
+    /// A vehicle whose rear has left its intersection, or whose way no
+    /// longer leads through the lane granted, gives its way back; so does
+    /// one behind its plan that can still stop comfortably before its
+    /// entry (it asks again), and vehicles no longer on the map. One behind
+    /// its plan inside is planned again from where it is.
     fn give_back_ways(&mut self) {
         let net = &self.net;
-        let margin = Margins::default().time;
-        let mut holding: FxHashMap<VehicleId, ()> = FxHashMap::default();
+        let config = &self.config.vehicle;
+        let now = self.time;
+        let mut holding: FxHashSet<VehicleId> = FxHashSet::default();
+        let mut revoked: Vec<(usize, VehicleId)> = Vec::new();
         for v in &mut self.vehicles {
-            let (rear, first) = (v.rear_s(), v.first_junction_lane);
-            let here = net.lane(v.path[0]).reservation;
-            let Some(grant) = v.grant.as_mut() else {
+            let Some(grant) = v.grant.as_ref() else {
                 continue;
             };
-            grant.entered |= here == Some(grant.intersection);
-            let through = grant.entered && here != Some(grant.intersection) && rear >= 0.0;
-            let off_way = !grant.entered && first.is_none_or(|f| f.lane != grant.lane);
-            if through || off_way || grant.late(margin) {
-                let intersection = grant.intersection as usize;
-                self.intersections[intersection].release(v.id);
+            let k = grant.intersection as usize;
+            let margin = self.intersections[k].margins().time;
+            let here = net.lane(v.path[0]).reservation;
+            let entered = grant.entered || here == Some(grant.intersection);
+            // Through once its rear has left the intersection and the reach
+            // of the exit its plan covers.
+            let on_exit = net.lane(grant.lane).next.contains(&v.path[0]);
+            let through = entered
+                && here != Some(grant.intersection)
+                && (!on_exit || v.rear_s() >= crate::reservation::EXIT_REACH);
+            let off_way = !entered && v.first_junction_lane.is_none_or(|f| f.lane != grant.lane);
+            let late = grant.behind_plan(margin);
+            if through {
+                self.intersections[k].finish(v.id);
                 v.grant = None;
-            } else {
-                holding.insert(v.id, ());
+                continue;
+            }
+            if off_way || (late && !entered && can_stop_before_entry(net, config, v)) {
+                self.intersections[k].release(v.id);
+                v.grant = None;
+                continue;
+            }
+            if late && entered {
+                let approach = approach_of(
+                    net,
+                    config,
+                    v,
+                    grant.lane,
+                    -along_movement(net, v, grant.lane),
+                );
+                if let Some((g, met)) = self.intersections[k].replan(v.id, now, approach) {
+                    let mut driving = Driving::of(k as u32, g);
+                    driving.entered = true;
+                    v.grant = Some(Box::new(driving));
+                    revoked.extend(met.into_iter().map(|id| (k, id)));
+                }
+            } else if let Some(g) = v.grant.as_mut() {
+                g.entered = entered;
+            }
+            holding.insert(v.id);
+        }
+        // Those whose ways a replanned vehicle now crosses, while they can
+        // still stop before their entry, ask again.
+        for (k, id) in revoked {
+            let Some(v) = self.vehicles.iter_mut().find(|v| v.id == id) else {
+                continue;
+            };
+            let not_in = v.grant.as_ref().is_some_and(|g| !g.entered);
+            if not_in && can_stop_before_entry(net, config, v) {
+                self.intersections[k].release(id);
+                v.grant = None;
+                holding.remove(&id);
             }
         }
         for intersection in &mut self.intersections {
-            intersection.retain_granted(|id| holding.contains_key(&id));
+            intersection.retain_granted(|id| holding.contains(&id));
         }
     }
 
@@ -99,7 +140,7 @@ impl World {
                 continue;
             };
             let to_entry = first.start - v.s;
-            if to_entry > ASK_WITHIN {
+            if to_entry > crate::reservation::ask_distance(v.speed) {
                 continue;
             }
             let from = v.path[0];
@@ -107,26 +148,11 @@ impl World {
                 .iter()
                 .position(|(_, _, r)| r.from == from)
                 .map(|k| (k, self.vehicles[heads[k].1].s < v.s));
-            let accel = match crate::control::driver_model(net, v, config) {
-                DriverModel::Awsim => config.acceleration,
-                DriverModel::Realistic(idm) => idm.accel,
-            };
-            let max_speed = match config.speed_limit_source {
-                SpeedLimitSource::FixedSpeedLimit => config.fixed_speed_limit,
-                SpeedLimitSource::LaneletSpeedLimit => lane.speed_limit,
-            };
             let request = Request {
                 vehicle: v.id,
                 lane: first.lane,
                 from,
-                approach: Approach {
-                    to_entry: to_entry.max(0.0),
-                    speed: v.speed,
-                    accel,
-                    max_speed,
-                    length: v.length,
-                    width: v.width,
-                },
+                approach: approach_of(net, config, v, first.lane, to_entry.max(0.0)),
                 emergency: false,
             };
             match ahead_of_others {
@@ -137,4 +163,57 @@ impl World {
         }
         heads
     }
+}
+
+/// What vehicle `v`, its front `to_entry` metres before the start of
+/// movement `lane` (negative: inside), tells the intersection: its
+/// speed, its driver model's acceleration, the limit in force and its body.
+fn approach_of(
+    net: &crate::LaneNetwork,
+    config: &trafficmesh_model::NpcVehicleConfig,
+    v: &crate::Vehicle,
+    lane: crate::LaneId,
+    to_entry: f64,
+) -> Approach {
+    let accel = match crate::control::driver_model(net, v, config) {
+        DriverModel::Awsim => config.acceleration,
+        DriverModel::Realistic(idm) => idm.accel,
+    };
+    let max_speed = match config.speed_limit_source {
+        SpeedLimitSource::FixedSpeedLimit => config.fixed_speed_limit,
+        SpeedLimitSource::LaneletSpeedLimit => net.lane(lane).speed_limit,
+    };
+    Approach {
+        to_entry,
+        speed: v.speed,
+        accel,
+        max_speed,
+        length: v.length,
+        width: v.width,
+    }
+}
+
+/// How far the front has driven along movement `lane`: on it, its arc
+/// position; past it, the movement's length and how far it has gone on.
+fn along_movement(net: &crate::LaneNetwork, v: &crate::Vehicle, lane: crate::LaneId) -> f64 {
+    if v.path[0] == lane {
+        return v.s;
+    }
+    let behind = v.behind.latest().filter(|&b| b == lane);
+    behind.map_or(v.s, |b| net.lane(b).length() + v.s)
+}
+
+/// Can vehicle `v` still stop comfortably (and a metre short) before its
+/// first junction lane?
+fn can_stop_before_entry(
+    net: &crate::LaneNetwork,
+    config: &trafficmesh_model::NpcVehicleConfig,
+    v: &crate::Vehicle,
+) -> bool {
+    let to_entry = v.first_junction_lane.map_or(0.0, |f| f.start - v.s);
+    let comfortable = match crate::control::driver_model(net, v, config) {
+        DriverModel::Awsim => config.deceleration,
+        DriverModel::Realistic(idm) => idm.decel,
+    };
+    to_entry > v.speed * v.speed / (2.0 * comfortable) + 1.0
 }

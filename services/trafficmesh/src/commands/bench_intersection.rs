@@ -1,0 +1,376 @@
+//! `trafficmesh bench intersection`: one four-way intersection, three lanes
+//! per approach, run by fixed-time lights and by reservations (autonomous
+//! intersection management) at the same demands. Per controller and demand:
+//! vehicles served per hour per lane, mean and 95th-percentile delay (time
+//! from arrival to 50 m past the intersection less the free-flow time of the
+//! same movement) and collisions (pairs of bodies that overlapped).
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use serde::Serialize;
+use trafficmesh_maps::four_way::{self, FourWayOptions, Movement};
+use trafficmesh_model::{DriverModel, IntersectionController, NpcVehicleConfig, SpeedLimitSource};
+use trafficmesh_sim::motion_check::overlapping_pairs;
+use trafficmesh_sim::{LaneNetwork, VehicleId, World, WorldConfig};
+
+/// Metres past the intersection where a vehicle counts as served.
+const SERVED_PAST: f64 = 50.0;
+/// The footprints the overlap check compares, shrunk by this (as `sim --check`).
+const OVERLAP_MARGIN: f64 = 0.1;
+/// Tick, seconds (the `realistic` drivers' usual step).
+const DT: f64 = 0.1;
+const KIND: &str = "Hatchback";
+/// Seconds a new vehicle keeps from the one last inserted on its lane at
+/// the lane's start; arrivals closer than that wait to be inserted.
+const INSERT_HEADWAY: f64 = 1.2;
+
+#[derive(Args)]
+pub struct IntersectionArgs {
+    /// Demands to run, vehicles per hour per lane, comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "100,300,500,700,900")]
+    demand: Vec<f64>,
+    /// Simulated seconds of arrivals per run (served vehicles are counted
+    /// over this time; the run goes on until those inside have left).
+    #[arg(long, default_value_t = 900.0)]
+    duration: f64,
+    /// Random seed of the arrivals and their movements.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+    /// Green seconds per phase of the fixed-time lights (two phases,
+    /// east-west then north-south, 3 s of yellow each).
+    #[arg(long, default_value_t = 30.0)]
+    green: f64,
+    /// Where to write the table as CSV.
+    #[arg(long, default_value = "out/bench-intersection.csv")]
+    csv: PathBuf,
+    /// Print one JSON object `{"rows": [...]}` instead of the table.
+    #[arg(long)]
+    json: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+struct Row {
+    controller: &'static str,
+    demand_vphpl: f64,
+    served_vphpl: f64,
+    mean_delay_s: f64,
+    p95_delay_s: f64,
+    collisions: usize,
+    /// Vehicles the jam timeout moved on or took off (after 300 s standing).
+    jam_resolutions: u64,
+}
+
+/// A splitmix64 stream: arrivals and movements, the same for both controllers.
+struct Stream(u64);
+
+impl Stream {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+/// One arrival: when, where, which way.
+#[derive(Clone, Copy, Debug)]
+struct Arrival {
+    at: f64,
+    approach: usize,
+    lane: usize,
+    movement: Movement,
+}
+
+/// Poisson arrivals on every approach lane at `demand` vehicles per hour;
+/// a lane offering a turn sends half its vehicles that way.
+fn arrivals(o: &FourWayOptions, demand: f64, duration: f64, seed: u64) -> Vec<Arrival> {
+    let mut all = Vec::new();
+    for d in 0..4 {
+        for k in 0..o.lanes {
+            let mut rng = Stream(seed ^ ((d * 16 + k) as u64).wrapping_mul(0xA24B_AED4_963E_E407));
+            let moves = four_way::movements_of(k, o.lanes);
+            let mut t = 0.0;
+            loop {
+                t += -(1.0 - rng.next()).ln() * 3600.0 / demand;
+                if t >= duration {
+                    break;
+                }
+                let movement = if moves.len() > 1 && rng.next() < 0.5 {
+                    moves[1]
+                } else {
+                    Movement::Straight
+                };
+                all.push(Arrival {
+                    at: t,
+                    approach: d,
+                    lane: k,
+                    movement,
+                });
+            }
+        }
+    }
+    all.sort_by(|a, b| a.at.total_cmp(&b.at));
+    all
+}
+
+fn world_of(o: &FourWayOptions) -> Result<World> {
+    let net = LaneNetwork::build(&four_way::four_way_map(o))
+        .map_err(|p| anyhow::anyhow!("the generated intersection is invalid: {p:?}"))?;
+    let junctions: std::collections::HashSet<_> = net
+        .lanes
+        .iter()
+        .filter(|l| l.intersection)
+        .map(|l| l.junction)
+        .collect();
+    if junctions.len() != 1 {
+        bail!(
+            "the generated intersection's lanes form {} junctions, not one",
+            junctions.len()
+        );
+    }
+    let config = WorldConfig {
+        dt: DT,
+        vehicle: NpcVehicleConfig {
+            driver_model: DriverModel::Realistic(Default::default()),
+            speed_limit_source: SpeedLimitSource::LaneletSpeedLimit,
+            ..NpcVehicleConfig::default()
+        },
+        ..WorldConfig::default()
+    };
+    Ok(World::new(net, config))
+}
+
+/// What one run measured: per vehicle its arrival, movement and the time it
+/// was served; and the pairs that overlapped.
+struct Run {
+    served: Vec<(Arrival, f64)>,
+    collisions: usize,
+    jam_resolutions: u64,
+}
+
+fn run(o: &FourWayOptions, arrivals: &[Arrival], duration: f64) -> Result<Run> {
+    let mut world = world_of(o)?;
+    let net = world.network().clone();
+    let exits: std::collections::HashSet<u32> = (0..4)
+        .flat_map(|e| (0..o.lanes).map(move |k| four_way::exit_lane(e, k)))
+        .map(|name| net.lane_id(&name).expect("an exit lane"))
+        .collect();
+    let mut pending: Vec<Vec<Arrival>> = vec![Vec::new(); 4 * o.lanes];
+    let mut next = 0;
+    let mut inside: HashMap<VehicleId, Arrival> = HashMap::new();
+    let mut last_insert = vec![f64::NEG_INFINITY; 4 * o.lanes];
+    let mut served = Vec::new();
+    let mut pairs = std::collections::HashSet::new();
+    // Arrivals end at `duration`; the run goes on until all have left.
+    let limit = duration + 600.0;
+    while world.time() < limit {
+        let now = world.time();
+        while next < arrivals.len() && arrivals[next].at <= now {
+            let a = arrivals[next];
+            pending[a.approach * o.lanes + a.lane].push(a);
+            next += 1;
+        }
+        for (slot, queue) in pending.iter_mut().enumerate() {
+            let Some(&a) = queue.first() else { continue };
+            if now - last_insert[slot] < INSERT_HEADWAY || !start_free(&world, &net, &a) {
+                continue;
+            }
+            let route = four_way::route(a.approach, a.lane, a.movement);
+            let route: Vec<&str> = route.iter().map(String::as_str).collect();
+            let speed = entry_speed(&world, &net, &a, o.speed_limit);
+            let id = world
+                .place_vehicle_on_route(KIND, &route, 5.0, speed)
+                .context("inserting an arrival")?;
+            inside.insert(id, a);
+            last_insert[slot] = now;
+            queue.remove(0);
+        }
+        world.step();
+        for (i, j) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
+            let (a, b) = (world.vehicles()[i].id, world.vehicles()[j].id);
+            pairs.insert((a.min(b), a.max(b)));
+        }
+        for v in world.vehicles() {
+            if exits.contains(&v.path[0])
+                && v.s >= SERVED_PAST
+                && let Some(a) = inside.remove(&v.id)
+            {
+                served.push((a, world.time()));
+            }
+        }
+        if next == arrivals.len() && inside.is_empty() && pending.iter().all(Vec::is_empty) {
+            break;
+        }
+    }
+    Ok(Run {
+        served,
+        collisions: pairs.len(),
+        jam_resolutions: world.wait_stats().jam_resolutions,
+    })
+}
+
+/// Is the start of the arrival's lane clear for a new body?
+fn start_free(world: &World, net: &LaneNetwork, a: &Arrival) -> bool {
+    let lane = net
+        .lane_id(&four_way::approach_lane(a.approach, a.lane))
+        .expect("an approach lane");
+    world
+        .vehicles()
+        .iter()
+        // A body moving across from the lane beside still reaches into it.
+        .all(|v| (v.path[0] != lane && v.shadow != Some(lane)) || v.rear_s() > 15.0)
+}
+
+/// The speed a new vehicle enters at: the limit, or that of the one ahead
+/// near the start.
+fn entry_speed(world: &World, net: &LaneNetwork, a: &Arrival, limit: f64) -> f64 {
+    let lane = net
+        .lane_id(&four_way::approach_lane(a.approach, a.lane))
+        .expect("an approach lane");
+    world
+        .vehicles()
+        .iter()
+        .filter(|v| v.path[0] == lane && v.rear_s() < 80.0)
+        .map(|v| v.speed)
+        .fold(limit, f64::min)
+}
+
+/// Free-flow time of each movement: a vehicle alone, arriving at the limit.
+fn free_flow(o: &FourWayOptions) -> Result<HashMap<(usize, usize, u8), f64>> {
+    let alone = FourWayOptions {
+        controller: IntersectionController::Priority,
+        ..o.clone()
+    };
+    let mut times = HashMap::new();
+    for d in 0..4 {
+        for k in 0..o.lanes {
+            for m in four_way::movements_of(k, o.lanes) {
+                let a = Arrival {
+                    at: 0.0,
+                    approach: d,
+                    lane: k,
+                    movement: m,
+                };
+                let r = run(&alone, &[a], 1.0)?;
+                let (_, at) = r.served.first().context("a vehicle alone was not served")?;
+                times.insert((d, k, m as u8), *at);
+            }
+        }
+    }
+    Ok(times)
+}
+
+fn row(
+    controller: &'static str,
+    o: &FourWayOptions,
+    demand: f64,
+    duration: f64,
+    r: &Run,
+    free: &HashMap<(usize, usize, u8), f64>,
+) -> Row {
+    let mut delays: Vec<f64> = r
+        .served
+        .iter()
+        .map(|(a, t)| (t - a.at - free[&(a.approach, a.lane, a.movement as u8)]).max(0.0))
+        .collect();
+    delays.sort_by(f64::total_cmp);
+    let in_time = r.served.iter().filter(|(_, t)| *t <= duration).count();
+    let lanes = (4 * o.lanes) as f64;
+    let p95 = delays
+        .get(((delays.len() as f64 * 0.95).ceil() as usize).saturating_sub(1))
+        .copied()
+        .unwrap_or(0.0);
+    Row {
+        controller,
+        demand_vphpl: demand,
+        served_vphpl: in_time as f64 / lanes / (duration / 3600.0),
+        mean_delay_s: if delays.is_empty() {
+            0.0
+        } else {
+            delays.iter().sum::<f64>() / delays.len() as f64
+        },
+        p95_delay_s: p95,
+        collisions: r.collisions,
+        jam_resolutions: r.jam_resolutions,
+    }
+}
+
+pub fn run_bench(a: IntersectionArgs) -> Result<()> {
+    if a.demand.iter().any(|&d| !(d.is_finite() && d > 0.0)) {
+        bail!("--demand: every demand must be a positive number of vehicles per hour per lane");
+    }
+    if !(a.duration.is_finite() && a.duration > 0.0) {
+        bail!("--duration must be a positive number of seconds");
+    }
+    let base = FourWayOptions {
+        green: a.green,
+        ..FourWayOptions::default()
+    };
+    let free = free_flow(&base)?;
+    let progress = indicatif::ProgressBar::new((2 * a.demand.len()) as u64);
+    let mut rows = Vec::new();
+    for &demand in &a.demand {
+        let arrivals = arrivals(&base, demand, a.duration, a.seed);
+        for (name, controller) in [
+            ("lights", IntersectionController::Lights),
+            ("reservation", IntersectionController::Reservation),
+        ] {
+            let o = FourWayOptions {
+                controller,
+                ..base.clone()
+            };
+            let r = run(&o, &arrivals, a.duration)?;
+            rows.push(row(name, &o, demand, a.duration, &r, &free));
+            progress.inc(1);
+        }
+    }
+    progress.finish_and_clear();
+    write_csv(&a.csv, &rows)?;
+    if a.json {
+        println!("{}", serde_json::json!({ "rows": rows }));
+    } else {
+        println!(
+            "{:<12} {:>8} {:>8} {:>10} {:>10} {:>10} {:>6}",
+            "controller", "demand", "served", "mean_delay", "p95_delay", "collisions", "jams"
+        );
+        for r in &rows {
+            println!(
+                "{:<12} {:>8.0} {:>8.0} {:>10.1} {:>10.1} {:>10} {:>6}",
+                r.controller,
+                r.demand_vphpl,
+                r.served_vphpl,
+                r.mean_delay_s,
+                r.p95_delay_s,
+                r.collisions,
+                r.jam_resolutions
+            );
+        }
+        println!(
+            "(vehicles per hour per lane; delays in seconds; jams: jam-timeout resolutions; table in {})",
+            a.csv.display()
+        );
+    }
+    Ok(())
+}
+
+/// Writes the table whole or not at all (a temporary file renamed over it).
+fn write_csv(path: &std::path::Path, rows: &[Row]) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let tmp = path.with_extension("csv.tmp");
+    {
+        let mut w =
+            csv::Writer::from_path(&tmp).with_context(|| format!("writing {}", tmp.display()))?;
+        for r in rows {
+            w.serialize(r)?;
+        }
+        w.flush()?;
+    }
+    std::fs::rename(&tmp, path).with_context(|| format!("writing {}", path.display()))?;
+    Ok(())
+}
