@@ -405,6 +405,10 @@ fn bench_intersection_compares_reservations_with_lights() {
         delay(reserved) < delay(lights),
         "{reserved} against {lights}"
     );
+    for field in ["p50", "p99", "max", "per_request_p99"] {
+        let us = v["decision_us"][field].as_f64().unwrap_or(-1.0);
+        assert!(us > 0.0, "decision_us.{field} in {v}");
+    }
     let table = std::fs::read_to_string(&csv).expect("the CSV is written");
     assert_eq!(table.lines().count(), 3, "a header and two rows: {table}");
     assert!(

@@ -329,9 +329,13 @@ pub fn run_bench(a: IntersectionArgs) -> Result<()> {
         }
     }
     progress.finish_and_clear();
+    let decisions = decision_times(&base, a.seed)?;
     write_csv(&a.csv, &rows)?;
     if a.json {
-        println!("{}", serde_json::json!({ "rows": rows }));
+        println!(
+            "{}",
+            serde_json::json!({ "rows": rows, "decision_us": decisions })
+        );
     } else {
         println!(
             "{:<12} {:>8} {:>8} {:>10} {:>10} {:>10} {:>6}",
@@ -350,11 +354,105 @@ pub fn run_bench(a: IntersectionArgs) -> Result<()> {
             );
         }
         println!(
+            "reservation decisions: a round of every approach asking p50 {:.1} us, p99 {:.1} us, max {:.1} us; one request p99 {:.1} us ({} rounds)",
+            decisions.p50,
+            decisions.p99,
+            decisions.max,
+            decisions.per_request_p99,
+            decisions.rounds
+        );
+        println!(
             "(vehicles per hour per lane; delays in seconds; jams: jam-timeout resolutions; table in {})",
             a.csv.display()
         );
     }
     Ok(())
+}
+
+/// Wall time of the reservation decisions, microseconds: of a whole round
+/// (every approach's head asking), and of one request (a round's time over
+/// the requests in it).
+#[derive(Debug, Serialize)]
+struct DecisionTimes {
+    p50: f64,
+    p99: f64,
+    max: f64,
+    per_request_p99: f64,
+    rounds: usize,
+}
+
+/// Rounds of decisions at the same intersection, in-process, as the
+/// reservation intersection makes them every tick: the head of each of the
+/// twelve approach lanes asks (from 0 to 60 m out, at 0 to 25 m/s, drawn
+/// from the seed), and a granted head is replaced by a new vehicle; each
+/// round timed alone.
+fn decision_times(o: &FourWayOptions, seed: u64) -> Result<DecisionTimes> {
+    use trafficmesh_sim::reservation::plan::{Approach, Margins};
+    use trafficmesh_sim::reservation::{Intersection, Request};
+    const ROUNDS: usize = 3000;
+    let reserved = FourWayOptions {
+        controller: IntersectionController::Reservation,
+        ..o.clone()
+    };
+    let net = LaneNetwork::build(&four_way::four_way_map(&reserved))
+        .map_err(|p| anyhow::anyhow!("the generated intersection is invalid: {p:?}"))?;
+    let junction = net.reservation_junctions[0];
+    let mut x = Intersection::of(&net, junction, 2.0, Margins::default());
+    let mut rng = Stream(seed ^ 0x5EED);
+    let mut heads: Vec<(VehicleId, usize, usize)> = (0..4)
+        .flat_map(|d| (0..o.lanes).map(move |k| (d, k)))
+        .enumerate()
+        .map(|(i, (d, k))| (i as VehicleId, d, k))
+        .collect();
+    let mut next_id = heads.len() as VehicleId;
+    let mut times = Vec::with_capacity(ROUNDS);
+    let mut per_request = Vec::with_capacity(ROUNDS);
+    for round in 0..ROUNDS {
+        let now = round as f64 * DT;
+        let requests: Vec<Request> = heads
+            .iter()
+            .map(|&(id, d, k)| {
+                let moves = four_way::movements_of(k, o.lanes);
+                let m = moves[id as usize % moves.len()];
+                let lane = net
+                    .lane_id(&four_way::movement_lane(d, k, m))
+                    .expect("a movement");
+                Request {
+                    vehicle: id,
+                    lane,
+                    from: net.lane(lane).prev[0],
+                    approach: Approach {
+                        to_entry: 60.0 * rng.next(),
+                        speed: 25.0 * rng.next(),
+                        accel: 2.6,
+                        max_speed: net.lane(lane).speed_limit,
+                        length: 4.0,
+                        width: 1.9,
+                    },
+                    emergency: false,
+                }
+            })
+            .collect();
+        let started = std::time::Instant::now();
+        let granted = x.decide(now, &requests);
+        times.push(started.elapsed().as_secs_f64() * 1e6);
+        per_request.push(times[times.len() - 1] / requests.len() as f64);
+        for id in granted {
+            let head = heads.iter_mut().find(|h| h.0 == id).expect("a head");
+            head.0 = next_id;
+            next_id += 1;
+        }
+    }
+    times.sort_by(f64::total_cmp);
+    per_request.sort_by(f64::total_cmp);
+    let at = |v: &[f64], q: f64| v[((v.len() as f64 * q).ceil() as usize).clamp(1, v.len()) - 1];
+    Ok(DecisionTimes {
+        p50: at(&times, 0.5),
+        p99: at(&times, 0.99),
+        max: times[times.len() - 1],
+        per_request_p99: at(&per_request, 0.99),
+        rounds: ROUNDS,
+    })
 }
 
 /// Writes the table whole or not at all (a temporary file renamed over it).
