@@ -228,3 +228,75 @@ fn a_controller_for_a_lane_that_is_not_in_an_intersection_is_refused() {
         "{problems:?}"
     );
 }
+
+/// The crossing with a kind of its own, 5 m long, of SUMO's class
+/// `emergency` or not.
+fn crossing_with_an_ambulance(emergency: bool) -> trafficmesh_model::MapFile {
+    let mut m = serde_json::to_value(crossing("reservation")).unwrap();
+    let mut kind = json!({ "name": "Ambulance", "front": 4.0, "length": 5.0, "width": 2.0 });
+    if emergency {
+        kind["class"] = json!("emergency");
+    }
+    m["vehicle_kinds"] = json!([kind]);
+    serde_json::from_value(m).unwrap()
+}
+
+/// Seconds from the ambulance's placing, at the back of a queue of three
+/// standing on the south approach, to its entering the intersection, with
+/// streams crossing from the west and the east (a vehicle each every 2 s,
+/// from 20 s before).
+fn ambulance_enters(emergency: bool) -> f64 {
+    let mut w = world(
+        &crossing_with_an_ambulance(emergency),
+        WorldConfig::default(),
+    );
+    let mut next = 0.0;
+    let mut ambulance = None;
+    while w.time() < 140.0 {
+        if w.time() >= next {
+            for route in [&ROUTES[0], &ROUTES[3]] {
+                // Where the queue has backed up to the lane's start, none.
+                let start = w.network().lane_id(route[0]).unwrap();
+                if w.vehicles()
+                    .iter()
+                    .all(|v| v.path[0] != start || v.rear_s() > 15.0)
+                {
+                    w.place_vehicle_on_route("Taxi", route, 5.0, 10.0).unwrap();
+                }
+            }
+            next += 2.0;
+        }
+        if ambulance.is_none() && w.time() >= 20.0 {
+            for s in [95.0, 88.0, 81.0] {
+                w.place_vehicle_on_route("Taxi", &ROUTES[2], s, 0.0)
+                    .unwrap();
+            }
+            let id = w
+                .place_vehicle_on_route("Ambulance", &ROUTES[2], 73.0, 0.0)
+                .unwrap();
+            ambulance = Some((id, w.time()));
+        }
+        w.step();
+        let overlaps = overlapping_pairs(w.vehicles(), 0.05);
+        assert!(
+            overlaps.is_empty(),
+            "overlap at t={:.2}: {overlaps:?}",
+            w.time()
+        );
+        if let Some((id, placed)) = ambulance
+            && w.vehicle(id).is_some_and(inside)
+        {
+            return w.time() - placed;
+        }
+    }
+    panic!("the ambulance never entered (emergency: {emergency})");
+}
+
+#[test]
+fn an_emergency_vehicle_has_its_lane_served_ahead_of_a_crossing_stream() {
+    let (plain, emergency) = (ambulance_enters(false), ambulance_enters(true));
+    assert!(
+        emergency + 5.0 < plain,
+        "the ambulance entered at {emergency:.1} s as an emergency vehicle, at {plain:.1} s as another"
+    );
+}

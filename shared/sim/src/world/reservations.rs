@@ -161,6 +161,17 @@ impl World {
                 Some((_, false)) => {}
             }
         }
+        // An emergency vehicle waiting anywhere on an approach lane gives
+        // that lane's head its priority.
+        let with_emergency: FxHashSet<crate::LaneId> = self
+            .vehicles
+            .iter()
+            .filter(|v| v.grant.is_none() && is_emergency(net, v))
+            .map(|v| v.path[0])
+            .collect();
+        for (_, _, request) in &mut heads {
+            request.emergency = with_emergency.contains(&request.from);
+        }
         heads
     }
 }
@@ -217,3 +228,11 @@ fn can_stop_before_entry(
     };
     to_entry > v.speed * v.speed / (2.0 * comfortable) + 1.0
 }
+
+/// Is `v` an emergency vehicle (its kind's class SUMO's `emergency`)?
+fn is_emergency(net: &crate::LaneNetwork, v: &crate::Vehicle) -> bool {
+    net.kinds[v.kind].class.as_deref() == Some(EMERGENCY_CLASS)
+}
+
+/// The vehicle class of emergency vehicles (SUMO's vClass).
+pub const EMERGENCY_CLASS: &str = "emergency";
