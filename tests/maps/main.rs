@@ -209,7 +209,7 @@ fn entries_past_signals(
     let signalised: Vec<(trafficmesh_sim::LaneId, usize)> = (0..world.network().lanes.len())
         .filter_map(|l| {
             let lane = l as trafficmesh_sim::LaneId;
-            Some((lane, world.network().lane(lane).light? as usize))
+            Some((lane, world.network().lane(lane).light()? as usize))
         })
         .collect();
     let group_of: std::collections::HashMap<_, _> = signalised.iter().copied().collect();

@@ -119,7 +119,7 @@ fn geometry(net: &LaneNetwork) -> MapGeometry {
         .map(|g| (g.name.clone(), Vec::new()))
         .collect();
     for lane in &net.lanes {
-        if let Some(g) = lane.light {
+        if let Some(g) = lane.light() {
             let (p, _) = lane.line.point_at(lane.light_stop_s());
             lights
                 .entry(net.light_groups[g as usize].name.clone())

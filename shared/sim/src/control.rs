@@ -53,6 +53,15 @@ pub fn driver_model(net: &LaneNetwork, v: &Vehicle, c: &NpcVehicleConfig) -> Dri
     }
 }
 
+/// A driver model's acceleration and gentle braking, m/s²: the reference's
+/// `acceleration` and `deceleration`, a realistic driver's own.
+pub fn comfortable_rates(model: DriverModel, c: &NpcVehicleConfig) -> (f64, f64) {
+    match model {
+        DriverModel::Awsim => (c.acceleration, c.deceleration),
+        DriverModel::Realistic(idm) => (idm.accel, idm.decel),
+    }
+}
+
 /// Updates speed and arc position by the vehicle's driver model, from the
 /// Decision step's speed mode and stop points and the lane's speed limit.
 pub fn step_speed(
@@ -66,10 +75,7 @@ pub fn step_speed(
     let model = driver_model(net, v, c);
     // With every lane's own limit in force, the lower limits ahead.
     let ahead = (c.speed_limit_source == SpeedLimitSource::LaneletSpeedLimit).then(|| {
-        let decel = match model {
-            DriverModel::Awsim => c.deceleration,
-            DriverModel::Realistic(idm) => idm.decel,
-        };
+        let (_, decel) = comfortable_rates(model, c);
         LimitsAhead::of(net, v, speed_limit, decel, dt)
     });
     let new_speed = match model {
@@ -109,10 +115,7 @@ pub fn step_speed(
 /// How far a vehicle can drive this tick (at its driver model's highest
 /// acceleration).
 pub fn reach(net: &LaneNetwork, c: &NpcVehicleConfig, v: &Vehicle, dt: f64) -> f64 {
-    let accel = match driver_model(net, v, c) {
-        DriverModel::Awsim => c.acceleration,
-        DriverModel::Realistic(idm) => idm.accel,
-    };
+    let (accel, _) = comfortable_rates(driver_model(net, v, c), c);
     (v.speed + accel * dt) * dt
 }
 

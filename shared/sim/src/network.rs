@@ -26,7 +26,8 @@ pub struct Lane {
     /// Where a signalised lane stops its traffic (stop line, else the lane end).
     light_stop: f64,
     pub speed_limit: f64,
-    pub light: Option<u32>,
+    /// What holds vehicles at this lane's stop point.
+    pub control: StopControl,
     /// Junction this intersection lane belongs to.
     pub junction: Option<u32>,
     pub intersection: bool,
@@ -48,16 +49,43 @@ pub struct Lane {
     pub stop_s: Option<f64>,
     /// The vehicle classes allowed here; empty: all.
     pub vehicle_classes: Vec<String>,
-    /// The reservation intersection (an index into
-    /// [`LaneNetwork::reservation_junctions`]) this junction lane belongs to.
-    pub reservation: Option<u32>,
     /// The lanes of the same road beside this one (see [`crate::siblings`]).
     pub siblings: Vec<LaneId>,
+}
+
+/// What holds a vehicle at a lane's stop point (the stop line, else for a
+/// light its end, for a reservation its start): the intersection's
+/// controller, chosen per lane.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StopControl {
+    #[default]
+    Free,
+    /// A light group (an index into [`LaneNetwork::light_groups`]).
+    Light(u32),
+    /// A reservation intersection (an index into
+    /// [`LaneNetwork::reservation_junctions`]): red until a way is granted.
+    Reservation(u32),
 }
 
 impl Lane {
     pub fn length(&self) -> f64 {
         self.length
+    }
+
+    /// The light group at this lane's stop point, if any.
+    pub fn light(&self) -> Option<u32> {
+        match self.control {
+            StopControl::Light(group) => Some(group),
+            _ => None,
+        }
+    }
+
+    /// The reservation intersection this junction lane belongs to, if any.
+    pub fn reservation(&self) -> Option<u32> {
+        match self.control {
+            StopControl::Reservation(k) => Some(k),
+            _ => None,
+        }
     }
 
     /// The reference's `stopPoint(i)`: the stop line's centre, else waypoint i.
@@ -154,18 +182,21 @@ fn apply_controllers(
         if controller == IntersectionController::Lights {
             continue;
         }
-        let reservation = (controller == IntersectionController::Reservation).then(|| {
+        let control = if controller == IntersectionController::Reservation {
             reserved.push(junction);
-            (reserved.len() - 1) as u32
-        });
+            StopControl::Reservation((reserved.len() - 1) as u32)
+        } else {
+            StopControl::Free
+        };
         let members: Vec<usize> = (0..lanes.len())
             .filter(|&i| lanes[i].junction == Some(junction))
             .collect();
         for &i in &members {
-            lanes[i].light = None;
-            lanes[i].reservation = reservation;
+            lanes[i].control = control;
             for p in lanes[i].prev.clone() {
-                lanes[p as usize].light = None;
+                if lanes[p as usize].light().is_some() {
+                    lanes[p as usize].control = StopControl::Free;
+                }
             }
         }
     }
@@ -232,13 +263,14 @@ impl LaneNetwork {
                     prev: Vec::new(),
                     intersection: def.intersection,
                     turn: def.turn_direction,
-                    light: def.traffic_light.as_deref().map(|g| group_index[g] as u32),
+                    control: def.traffic_light.as_deref().map_or(StopControl::Free, |g| {
+                        StopControl::Light(group_index[g] as u32)
+                    }),
                     right_of_way: def.right_of_way.iter().map(id).collect(),
                     junction: None,
                     conflicts: Vec::new(),
                     road_conflicts: false,
                     vehicle_classes: def.vehicle_classes.clone(),
-                    reservation: None,
                     siblings: Vec::new(),
                 }
             })

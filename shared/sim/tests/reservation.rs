@@ -63,6 +63,20 @@ const ROUTES: [[&str; 3]; 5] = [
     ["n_in", "ns", "s_out"],
 ];
 
+/// Places a taxi at 10 m/s 5 m into `route`'s first lane, unless the queue
+/// there has backed up to the lane's start; returns whether it did.
+fn place_where_free(w: &mut World, route: &[&str]) -> bool {
+    let start = w.network().lane_id(route[0]).unwrap();
+    let free = w
+        .vehicles()
+        .iter()
+        .all(|v| (v.path[0] != start && v.shadow != Some(start)) || v.rear_s() > 15.0);
+    if free {
+        w.place_vehicle_on_route("Taxi", route, 5.0, 10.0).unwrap();
+    }
+    free
+}
+
 /// Is any part of the body within the junction's 20 m square?
 fn inside(v: &trafficmesh_sim::Vehicle) -> bool {
     v.footprint(0.0)
@@ -129,14 +143,7 @@ fn stream_with(controller: &str, every: f64, config: WorldConfig) -> (usize, Wor
             // One per approach; from the west straight on and right in turn.
             let west = if placed % 2 == 0 { 0 } else { 1 };
             for route in [west, 2, 3, 4].map(|k| &ROUTES[k]) {
-                // Where the queue has backed up to the lane's start, none.
-                let start = w.network().lane_id(route[0]).unwrap();
-                let free = w
-                    .vehicles()
-                    .iter()
-                    .all(|v| v.path[0] != start || v.rear_s() > 15.0);
-                if free {
-                    w.place_vehicle_on_route("Taxi", route, 5.0, 10.0).unwrap();
+                if place_where_free(&mut w, route) {
                     placed += 1;
                 }
             }
@@ -255,14 +262,7 @@ fn ambulance_enters(emergency: bool) -> f64 {
     while w.time() < 140.0 {
         if w.time() >= next {
             for route in [&ROUTES[0], &ROUTES[3]] {
-                // Where the queue has backed up to the lane's start, none.
-                let start = w.network().lane_id(route[0]).unwrap();
-                if w.vehicles()
-                    .iter()
-                    .all(|v| v.path[0] != start || v.rear_s() > 15.0)
-                {
-                    w.place_vehicle_on_route("Taxi", route, 5.0, 10.0).unwrap();
-                }
+                place_where_free(&mut w, route);
             }
             next += 2.0;
         }

@@ -2,8 +2,10 @@
 //! per approach, run by fixed-time lights and by reservations (autonomous
 //! intersection management) at the same demands. Per controller and demand:
 //! vehicles served per hour per lane, mean and 95th-percentile delay (time
-//! from arrival to 50 m past the intersection less the free-flow time of the
-//! same movement) and collisions (pairs of bodies that overlapped).
+//! from arrival to the end of the exit less the free-flow time of the same
+//! movement) and collisions (pairs of bodies that overlapped). The arrivals
+//! are the map's own timetable (a demand simulator): the world inserts each
+//! where there is room, as it does a SUMO demand.
 
 use std::collections::HashMap;
 use std::path::PathBuf;
@@ -12,20 +14,17 @@ use anyhow::{Context, Result, bail};
 use clap::Args;
 use serde::Serialize;
 use trafficmesh_maps::four_way::{self, FourWayOptions, Movement};
+use trafficmesh_model::map::{DepartureDef, SimulatorDef};
 use trafficmesh_model::{DriverModel, IntersectionController, NpcVehicleConfig, SpeedLimitSource};
 use trafficmesh_sim::motion_check::overlapping_pairs;
-use trafficmesh_sim::{LaneNetwork, VehicleId, World, WorldConfig};
-
-/// Metres past the intersection where a vehicle counts as served.
-const SERVED_PAST: f64 = 50.0;
+use trafficmesh_sim::{
+    DespawnReason, LaneId, LaneNetwork, SimEvent, VehicleId, World, WorldConfig,
+};
 /// The footprints the overlap check compares, shrunk by this (as `sim --check`).
 const OVERLAP_MARGIN: f64 = 0.1;
 /// Tick, seconds (the `realistic` drivers' usual step).
 const DT: f64 = 0.1;
 const KIND: &str = "Hatchback";
-/// Seconds a new vehicle keeps from the one last inserted on its lane at
-/// the lane's start; arrivals closer than that wait to be inserted.
-const INSERT_HEADWAY: f64 = 1.2;
 
 #[derive(Args)]
 pub struct IntersectionArgs {
@@ -117,8 +116,20 @@ fn arrivals(o: &FourWayOptions, demand: f64, duration: f64, seed: u64) -> Vec<Ar
     all
 }
 
-fn world_of(o: &FourWayOptions) -> Result<World> {
-    let net = LaneNetwork::build(&four_way::four_way_map(o))
+/// The intersection with `arrivals` as its timetable.
+fn world_of(o: &FourWayOptions, arrivals: &[Arrival]) -> Result<World> {
+    let mut map = four_way::four_way_map(o);
+    let departures = arrivals
+        .iter()
+        .map(|a| DepartureDef {
+            time: a.at,
+            route: four_way::route(a.approach, a.lane, a.movement).to_vec(),
+            prefab: KIND.to_string(),
+            other_routes: Vec::new(),
+        })
+        .collect();
+    map.traffic_simulators = vec![SimulatorDef::Demand { departures }];
+    let net = LaneNetwork::build(&map)
         .map_err(|p| anyhow::anyhow!("the generated intersection is invalid: {p:?}"))?;
     let junctions: std::collections::HashSet<_> = net
         .lanes
@@ -134,6 +145,7 @@ fn world_of(o: &FourWayOptions) -> Result<World> {
     }
     let config = WorldConfig {
         dt: DT,
+        max_vehicles: trafficmesh_sim::world::default_max_vehicles(true),
         vehicle: NpcVehicleConfig {
             driver_model: DriverModel::Realistic(Default::default()),
             speed_limit_source: SpeedLimitSource::LaneletSpeedLimit,
@@ -144,66 +156,58 @@ fn world_of(o: &FourWayOptions) -> Result<World> {
     Ok(World::new(net, config))
 }
 
-/// What one run measured: per vehicle its arrival, movement and the time it
-/// was served; and the pairs that overlapped.
+/// One vehicle that left at the end of its exit: the movement it took
+/// through the intersection, when it was due and when it left.
+#[derive(Clone, Copy, Debug)]
+struct Served {
+    movement: LaneId,
+    depart: f64,
+    left: f64,
+}
+
+/// What one run measured: the vehicles served, and the pairs that
+/// overlapped.
 struct Run {
-    served: Vec<(Arrival, f64)>,
+    served: Vec<Served>,
     collisions: usize,
     jam_resolutions: u64,
 }
 
 fn run(o: &FourWayOptions, arrivals: &[Arrival], duration: f64) -> Result<Run> {
-    let mut world = world_of(o)?;
-    let net = world.network().clone();
-    let exits: std::collections::HashSet<u32> = (0..4)
-        .flat_map(|e| (0..o.lanes).map(move |k| four_way::exit_lane(e, k)))
-        .map(|name| net.lane_id(&name).expect("an exit lane"))
-        .collect();
-    let mut pending: Vec<Vec<Arrival>> = vec![Vec::new(); 4 * o.lanes];
-    let mut next = 0;
-    let mut inside: HashMap<VehicleId, Arrival> = HashMap::new();
-    let mut last_insert = vec![f64::NEG_INFINITY; 4 * o.lanes];
+    let mut world = world_of(o, arrivals)?;
+    // The intersection lane each vehicle was last seen on (a driver may
+    // change lanes on its approach, and so its movement).
+    let mut movement: HashMap<VehicleId, LaneId> = HashMap::new();
     let mut served = Vec::new();
     let mut pairs = std::collections::HashSet::new();
+    let mut left = 0;
     // Arrivals end at `duration`; the run goes on until all have left.
     let limit = duration + 600.0;
-    while world.time() < limit {
-        let now = world.time();
-        while next < arrivals.len() && arrivals[next].at <= now {
-            let a = arrivals[next];
-            pending[a.approach * o.lanes + a.lane].push(a);
-            next += 1;
-        }
-        for (slot, queue) in pending.iter_mut().enumerate() {
-            let Some(&a) = queue.first() else { continue };
-            if now - last_insert[slot] < INSERT_HEADWAY || !start_free(&world, &net, &a) {
-                continue;
-            }
-            let route = four_way::route(a.approach, a.lane, a.movement);
-            let route: Vec<&str> = route.iter().map(String::as_str).collect();
-            let speed = entry_speed(&world, &net, &a, o.speed_limit);
-            let id = world
-                .place_vehicle_on_route(KIND, &route, 5.0, speed)
-                .context("inserting an arrival")?;
-            inside.insert(id, a);
-            last_insert[slot] = now;
-            queue.remove(0);
-        }
+    while world.time() < limit && left < arrivals.len() {
         world.step();
         for (i, j) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
             let (a, b) = (world.vehicles()[i].id, world.vehicles()[j].id);
             pairs.insert((a.min(b), a.max(b)));
         }
         for v in world.vehicles() {
-            if exits.contains(&v.path[0])
-                && v.s >= SERVED_PAST
-                && let Some(a) = inside.remove(&v.id)
-            {
-                served.push((a, world.time()));
+            if world.network().lane(v.path[0]).intersection {
+                movement.insert(v.id, v.path[0]);
             }
         }
-        if next == arrivals.len() && inside.is_empty() && pending.iter().all(Vec::is_empty) {
-            break;
+        for event in world.drain_events() {
+            let SimEvent::Despawned(trip) = event else {
+                continue;
+            };
+            left += 1;
+            if trip.reason == DespawnReason::RouteEnd
+                && let Some(&m) = movement.get(&trip.id)
+            {
+                served.push(Served {
+                    movement: m,
+                    depart: trip.depart,
+                    left: trip.despawn_time,
+                });
+            }
         }
     }
     Ok(Run {
@@ -213,34 +217,8 @@ fn run(o: &FourWayOptions, arrivals: &[Arrival], duration: f64) -> Result<Run> {
     })
 }
 
-/// Is the start of the arrival's lane clear for a new body?
-fn start_free(world: &World, net: &LaneNetwork, a: &Arrival) -> bool {
-    let lane = net
-        .lane_id(&four_way::approach_lane(a.approach, a.lane))
-        .expect("an approach lane");
-    world
-        .vehicles()
-        .iter()
-        // A body moving across from the lane beside still reaches into it.
-        .all(|v| (v.path[0] != lane && v.shadow != Some(lane)) || v.rear_s() > 15.0)
-}
-
-/// The speed a new vehicle enters at: the limit, or that of the one ahead
-/// near the start.
-fn entry_speed(world: &World, net: &LaneNetwork, a: &Arrival, limit: f64) -> f64 {
-    let lane = net
-        .lane_id(&four_way::approach_lane(a.approach, a.lane))
-        .expect("an approach lane");
-    world
-        .vehicles()
-        .iter()
-        .filter(|v| v.path[0] == lane && v.rear_s() < 80.0)
-        .map(|v| v.speed)
-        .fold(limit, f64::min)
-}
-
-/// Free-flow time of each movement: a vehicle alone, arriving at the limit.
-fn free_flow(o: &FourWayOptions) -> Result<HashMap<(usize, usize, u8), f64>> {
+/// Free-flow time of each movement: a vehicle alone, due at once.
+fn free_flow(o: &FourWayOptions) -> Result<HashMap<LaneId, f64>> {
     let alone = FourWayOptions {
         controller: IntersectionController::Priority,
         ..o.clone()
@@ -256,8 +234,8 @@ fn free_flow(o: &FourWayOptions) -> Result<HashMap<(usize, usize, u8), f64>> {
                     movement: m,
                 };
                 let r = run(&alone, &[a], 1.0)?;
-                let (_, at) = r.served.first().context("a vehicle alone was not served")?;
-                times.insert((d, k, m as u8), *at);
+                let s = r.served.first().context("a vehicle alone was not served")?;
+                times.insert(s.movement, s.left - s.depart);
             }
         }
     }
@@ -270,15 +248,15 @@ fn row(
     demand: f64,
     duration: f64,
     r: &Run,
-    free: &HashMap<(usize, usize, u8), f64>,
+    free: &HashMap<LaneId, f64>,
 ) -> Row {
     let mut delays: Vec<f64> = r
         .served
         .iter()
-        .map(|(a, t)| (t - a.at - free[&(a.approach, a.lane, a.movement as u8)]).max(0.0))
+        .map(|s| (s.left - s.depart - free[&s.movement]).max(0.0))
         .collect();
     delays.sort_by(f64::total_cmp);
-    let in_time = r.served.iter().filter(|(_, t)| *t <= duration).count();
+    let in_time = r.served.iter().filter(|s| s.left <= duration).count();
     let lanes = (4 * o.lanes) as f64;
     let p95 = delays
         .get(((delays.len() as f64 * 0.95).ceil() as usize).saturating_sub(1))

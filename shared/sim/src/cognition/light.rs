@@ -7,7 +7,7 @@ use super::Snapshot;
 use super::path::lanes_ahead;
 use crate::control::speed_limit;
 use crate::decision::{Pickup, StopDistances, commits_through_yellow};
-use crate::network::LaneId;
+use crate::network::{LaneId, StopControl};
 use crate::vehicle::Vehicle;
 
 pub struct LightView {
@@ -64,34 +64,34 @@ pub fn check(snap: &Snapshot, v: &Vehicle) -> LightView {
     let ahead = lanes_ahead(snap.net, v).map(|(_, lane, offset)| (lane, offset));
     for (lane, offset) in behind.into_iter().chain(ahead) {
         let l = snap.net.lane(lane);
-        if let Some(reservation) = l.reservation {
-            // A reservation intersection: red at its entry until a way is
-            // granted through it.
-            let distance = offset + l.stop_s.unwrap_or(0.0);
-            if distance < 0.0 || distance > crate::reservation::ask_distance(v.speed) {
+        let group = match l.control {
+            StopControl::Free => continue,
+            StopControl::Light(group) => group,
+            StopControl::Reservation(k) => {
+                // Red at the intersection's entry until a way is granted
+                // through it, from where the vehicle asks.
+                let distance = offset + l.stop_s.unwrap_or(0.0);
+                if distance < 0.0 || distance > crate::reservation::ask_distance(v.speed) {
+                    continue;
+                }
+                let granted = v.grant.as_ref().is_some_and(|g| g.intersection == k);
+                let view = LightView {
+                    lane: Some(lane),
+                    distance,
+                    color: if granted {
+                        LightColor::Green
+                    } else {
+                        LightColor::Red
+                    },
+                    stops: !granted,
+                };
+                if view.stops {
+                    return view;
+                }
+                first.get_or_insert(view);
                 continue;
             }
-            let granted = v
-                .grant
-                .as_ref()
-                .is_some_and(|g| g.intersection == reservation);
-            let view = LightView {
-                lane: Some(lane),
-                distance,
-                color: if granted {
-                    LightColor::Green
-                } else {
-                    LightColor::Red
-                },
-                stops: !granted,
-            };
-            if view.stops {
-                return view;
-            }
-            first.get_or_insert(view);
-            continue;
-        }
-        let Some(group) = l.light else { continue };
+        };
         let distance = offset + l.light_stop_s();
         let state = snap.lights.state(group as usize);
         if distance < 0.0 {

@@ -95,18 +95,6 @@ impl Book {
                     .map(move |(v, body)| (k as f64 * step - now, *v, body))
             })
     }
-
-    /// Vehicles holding a reservation.
-    pub fn holders(&self) -> Vec<VehicleId> {
-        let mut ids: Vec<VehicleId> = self
-            .slots
-            .values()
-            .flat_map(|held| held.iter().map(|(v, _)| *v))
-            .collect();
-        ids.sort_unstable();
-        ids.dedup();
-        ids
-    }
 }
 
 /// Do two rectangles keep apart? Most pairs are far apart: their centres

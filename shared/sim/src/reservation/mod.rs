@@ -104,15 +104,6 @@ pub struct Grant {
     pub step: f64,
 }
 
-impl Grant {
-    /// The granted speed `elapsed` seconds after the grant: the plan's at
-    /// that step, its last after it.
-    pub fn speed_at(&self, elapsed: f64) -> f64 {
-        let k = ((elapsed / self.step).floor().max(0.0) as usize).min(self.plan.speeds.len() - 1);
-        self.plan.speeds[k]
-    }
-}
-
 /// What a vehicle carries of its grant while it drives it: the speeds to
 /// keep to, and whether it has entered yet.
 #[derive(Clone, Debug, PartialEq)]
@@ -144,8 +135,12 @@ impl Driving {
 
     /// The granted speed now: the plan's at this step, its last after it.
     pub fn speed(&self) -> f64 {
-        let k = (self.elapsed / self.step + 1e-9).floor().max(0.0) as usize;
-        self.speeds[k.min(self.speeds.len() - 1)]
+        self.speeds[self.step_now().min(self.speeds.len() - 1)]
+    }
+
+    /// The plan's step now (beyond its last once it has run out).
+    fn step_now(&self) -> usize {
+        (self.elapsed / self.step + 1e-9).floor().max(0.0) as usize
     }
 
     /// The speed to drive, given the driver model's (`model`): the plan's,
@@ -168,7 +163,7 @@ impl Driving {
 
     /// How far the plan has driven by now, metres.
     pub fn planned_travel(&self) -> f64 {
-        let whole = (self.elapsed / self.step + 1e-9).floor().max(0.0) as usize;
+        let whole = self.step_now();
         let last = self.speeds.len() - 1;
         let done: f64 = self.speeds.iter().take(whole.min(last + 1)).sum::<f64>() * self.step;
         let rest = self.elapsed - whole as f64 * self.step;
@@ -265,18 +260,6 @@ impl Intersection {
         now: f64,
     ) -> impl Iterator<Item = (f64, VehicleId, &crate::geometry::Obb)> {
         self.book.ahead(now)
-    }
-
-    /// Vehicles waiting per approach lane, for the live map.
-    pub fn waiting_per_lane(&self) -> Vec<(LaneId, usize)> {
-        let mut lanes: Vec<(LaneId, usize)> = Vec::new();
-        for w in &self.waiting {
-            match lanes.iter_mut().find(|(l, _)| *l == w.request.from) {
-                Some((_, n)) => *n += 1,
-                None => lanes.push((w.request.from, 1)),
-            }
-        }
-        lanes
     }
 
     /// Vehicle `id`, inside and behind its plan, is planned again from where

@@ -231,8 +231,10 @@ fn a_released_vehicle_frees_its_way_and_the_granted_speed_is_the_plans() {
     let mut x = junction(&net);
     assert_eq!(x.decide(0.0, &[request(&net, 1, "we", 0.0, 0.0)]), vec![1]);
     let g = x.grant(1).unwrap();
-    assert_eq!(g.speed_at(0.0), 0.0);
-    assert!((g.speed_at(2.0) - 4.0).abs() < 1e-9, "2 m/s² for 2 s");
+    let mut driving = Driving::of(0, g);
+    assert_eq!(driving.speed(), 0.0);
+    driving.elapsed = 2.0;
+    assert!((driving.speed() - 4.0).abs() < 1e-9, "2 m/s² for 2 s");
     assert!(
         x.decide(0.1, &[request(&net, 2, "sn", 0.0, 0.0)])
             .is_empty()

@@ -38,7 +38,7 @@ pub(super) fn crossed_on_red(
     // the end of the lane just left, whose mark lies at most PAST_LINE into
     // this one): none to cross.
     let behind = v.behind.latest().filter(|_| s_before < PAST_LINE);
-    if v.light_lane.is_none() && behind.is_none_or(|b| net.lane(b).light.is_none()) {
+    if v.light_lane.is_none() && behind.is_none_or(|b| net.lane(b).light().is_none()) {
         return None;
     }
     let mut start = behind.map_or(0.0, |b| -net.lane(b).length());
@@ -47,7 +47,7 @@ pub(super) fn crossed_on_red(
             break;
         }
         let l = net.lane(lane);
-        if let Some(group) = l.light {
+        if let Some(group) = l.light() {
             let mark = start + l.light_stop_s() + PAST_LINE;
             let state = lights.state(group as usize);
             let into_red = time - state.since;

@@ -4,9 +4,10 @@
 //! a way. Serial, in id order (the intersections' queues order the rest).
 
 use rustc_hash::FxHashSet;
-use trafficmesh_model::{DriverModel, SpeedLimitSource};
+use trafficmesh_model::SpeedLimitSource;
 
 use super::World;
+use crate::control::{comfortable_rates, driver_model};
 use crate::reservation::plan::{Approach, Margins};
 use crate::reservation::{Driving, Intersection, Request};
 use crate::vehicle::VehicleId;
@@ -64,7 +65,7 @@ impl World {
             };
             let k = grant.intersection as usize;
             let margin = self.intersections[k].margins().time;
-            let here = net.lane(v.path[0]).reservation;
+            let here = net.lane(v.path[0]).reservation();
             let entered = grant.entered || here == Some(grant.intersection);
             // Through once its rear has left the intersection and the reach
             // of the exit its plan covers.
@@ -136,7 +137,7 @@ impl World {
                 continue;
             };
             let lane = net.lane(first.lane);
-            let Some(reservation) = lane.reservation else {
+            let Some(reservation) = lane.reservation() else {
                 continue;
             };
             let to_entry = first.start - v.s;
@@ -186,10 +187,7 @@ fn approach_of(
     lane: crate::LaneId,
     to_entry: f64,
 ) -> Approach {
-    let accel = match crate::control::driver_model(net, v, config) {
-        DriverModel::Awsim => config.acceleration,
-        DriverModel::Realistic(idm) => idm.accel,
-    };
+    let (accel, _) = comfortable_rates(driver_model(net, v, config), config);
     let max_speed = match config.speed_limit_source {
         SpeedLimitSource::FixedSpeedLimit => config.fixed_speed_limit,
         SpeedLimitSource::LaneletSpeedLimit => net.lane(lane).speed_limit,
@@ -222,10 +220,7 @@ fn can_stop_before_entry(
     v: &crate::Vehicle,
 ) -> bool {
     let to_entry = v.first_junction_lane.map_or(0.0, |f| f.start - v.s);
-    let comfortable = match crate::control::driver_model(net, v, config) {
-        DriverModel::Awsim => config.deceleration,
-        DriverModel::Realistic(idm) => idm.decel,
-    };
+    let (_, comfortable) = comfortable_rates(driver_model(net, v, config), config);
     to_entry > v.speed * v.speed / (2.0 * comfortable) + 1.0
 }
 
