@@ -11,6 +11,7 @@ pub mod enums;
 pub mod geometry;
 pub mod hash;
 pub mod map;
+pub mod reservation;
 pub mod spawn_config;
 pub mod vehicle_config;
 

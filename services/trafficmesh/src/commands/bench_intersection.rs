@@ -396,6 +396,7 @@ fn decision_times(o: &FourWayOptions, seed: u64) -> Result<DecisionTimes> {
                     .lane_id(&four_way::movement_lane(d, k, m))
                     .expect("a movement");
                 Request {
+                    intersection: 0,
                     vehicle: id,
                     lane,
                     from: net.lane(lane).prev[0],

@@ -18,6 +18,7 @@
 //! beyond what they tell it.
 
 pub mod book;
+pub mod manager;
 pub mod path;
 pub mod plan;
 
@@ -27,6 +28,7 @@ use crate::geometry::Polyline;
 use crate::network::{LaneId, LaneNetwork};
 use crate::vehicle::VehicleId;
 use book::Book;
+pub use manager::{IntersectionManager, Intersections};
 use plan::{Approach, Margins, Plan};
 
 /// Seconds the head of the queue waits before it is served alone.
@@ -81,19 +83,7 @@ pub struct Movement {
     pub path: Polyline,
 }
 
-/// A request for a way through, from the vehicle at the head of its
-/// approach lane.
-#[derive(Clone, Copy, Debug)]
-pub struct Request {
-    pub vehicle: VehicleId,
-    /// The intersection lane it drives.
-    pub lane: LaneId,
-    /// The approach lane it waits on.
-    pub from: LaneId,
-    pub approach: Approach,
-    /// It is an emergency vehicle, or one waits behind it in its lane.
-    pub emergency: bool,
-}
+pub use trafficmesh_model::reservation::{Granted, Request};
 
 /// A way granted: when, where, and the plan the vehicle is to drive.
 #[derive(Clone, Debug)]
@@ -121,12 +111,13 @@ pub struct Driving {
 }
 
 impl Driving {
-    pub fn of(intersection: u32, grant: &Grant) -> Self {
+    /// The way `granted`, from the round's time on.
+    pub fn of(granted: Granted) -> Self {
         Driving {
-            intersection,
-            lane: grant.lane,
-            speeds: grant.plan.speeds.clone(),
-            step: grant.step,
+            intersection: granted.intersection,
+            lane: granted.lane,
+            speeds: granted.speeds,
+            step: granted.step,
             elapsed: 0.0,
             travelled: 0.0,
             entered: false,
@@ -262,19 +253,20 @@ impl Intersection {
         self.book.ahead(now)
     }
 
-    /// Vehicle `id`, inside and behind its plan, is planned again from where
-    /// it is: its rectangles then say where it will be. Reserved whatever
-    /// they meet (it is inside and must get out); returns the new grant and
-    /// the vehicles whose grants its new rectangles meet (those not yet
-    /// inside are to give theirs back; the clearance check keeps the others
-    /// apart).
+    /// Vehicle `id`, holding a way along movement `lane` (inside and behind
+    /// its plan, or granted by a manager before this one), is planned again
+    /// from where it is: its rectangles then say where it will be. Reserved
+    /// whatever they meet (it may be inside and must get out); returns the
+    /// new grant and the vehicles whose grants its new rectangles meet
+    /// (those not yet inside are to give theirs back; the clearance check
+    /// keeps the others apart).
     pub fn replan(
         &mut self,
         id: VehicleId,
+        lane: LaneId,
         now: f64,
         approach: Approach,
     ) -> Option<(&Grant, Vec<VehicleId>)> {
-        let lane = self.granted.get(&id)?.lane;
         let m = self.movement(lane)?;
         let plan = plan::plan(&self.movements[m].path, &approach, &self.margins)?;
         self.book.release(id);

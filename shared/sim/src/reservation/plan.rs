@@ -8,19 +8,7 @@ use glam::DVec2;
 
 use crate::geometry::{Obb, Polyline};
 
-/// What a vehicle tells the intersection when it asks for a way through.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Approach {
-    /// Metres from its front bumper to the path's start (0 at the line).
-    pub to_entry: f64,
-    pub speed: f64,
-    /// The acceleration it drives the path with, m/s² (its comfortable one).
-    pub accel: f64,
-    /// The speed it keeps to on the path, m/s.
-    pub max_speed: f64,
-    pub length: f64,
-    pub width: f64,
-}
+pub use trafficmesh_model::reservation::Approach;
 
 /// Margins of the reserved rectangles and the integration step.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -60,6 +60,7 @@ fn request(
 ) -> Request {
     let lane = net.lane_id(lane).unwrap();
     Request {
+        intersection: 0,
         vehicle,
         lane,
         from: net.lane(lane).prev[0],
@@ -231,7 +232,14 @@ fn a_released_vehicle_frees_its_way_and_the_granted_speed_is_the_plans() {
     let mut x = junction(&net);
     assert_eq!(x.decide(0.0, &[request(&net, 1, "we", 0.0, 0.0)]), vec![1]);
     let g = x.grant(1).unwrap();
-    let mut driving = Driving::of(0, g);
+    let mut driving = Driving::of(Granted {
+        intersection: 0,
+        vehicle: 1,
+        lane: g.lane,
+        speeds: g.plan.speeds.clone(),
+        step: g.step,
+        again: false,
+    });
     assert_eq!(driving.speed(), 0.0);
     driving.elapsed = 2.0;
     assert!((driving.speed() - 4.0).abs() < 1e-9, "2 m/s² for 2 s");

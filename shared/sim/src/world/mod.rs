@@ -155,8 +155,9 @@ pub struct World {
     gridlocked: Vec<VehicleId>,
     /// Built-in walkers, when the world runs them itself (`sim`).
     walkers: Option<walkers::Walkers>,
-    /// The reservation intersections, in the network's order.
-    intersections: Vec<crate::reservation::Intersection>,
+    /// Who decides the ways through the reservation intersections: the
+    /// world's own, or the intersection service's (see `use_intersection_manager`).
+    intersections: Box<dyn crate::reservation::IntersectionManager>,
 }
 
 impl World {
@@ -166,7 +167,7 @@ impl World {
         let occupancy = Occupancy::new(net.crosswalks.len());
         let spawner = SpawnManager::new(&net, config.seed, true);
         let index = LaneIndex::empty(lanes);
-        let intersections = Self::reservation_intersections(&net);
+        let intersections = Box::new(crate::reservation::Intersections::of(&net));
         World {
             net,
             config,
@@ -371,6 +372,15 @@ impl World {
                 ends,
             },
         )
+    }
+
+    /// Hands the reservation intersections to another manager (the
+    /// intersection service): no way is granted while it gives no answer.
+    pub fn use_intersection_manager(
+        &mut self,
+        manager: Box<dyn crate::reservation::IntersectionManager>,
+    ) {
+        self.intersections = manager;
     }
 
     /// Hands every light group to a remote controller (the lights service):

@@ -1,70 +1,75 @@
 //! Reservation intersections in the tick (see `crate::reservation`): before
 //! cognition, a vehicle through its intersection, late on its plan, or gone
 //! gives its way back, and the head of each approach lane near one asks for
-//! a way. Serial, in id order (the intersections' queues order the rest).
+//! a way; the manager's answer sets the grants. Serial, in vehicle order
+//! (the intersections' queues order the rest).
 
-use rustc_hash::FxHashSet;
+use rustc_hash::{FxHashMap, FxHashSet};
 use trafficmesh_model::SpeedLimitSource;
+use trafficmesh_model::reservation::{Holding, Member, Round};
 
 use super::World;
 use crate::control::{comfortable_rates, driver_model};
 use crate::reservation::plan::{Approach, Margins};
-use crate::reservation::{Driving, Intersection, Request};
+use crate::reservation::{Driving, Request};
 use crate::vehicle::VehicleId;
 
 impl World {
-    /// The network's reservation intersections, for bodies as wide as its
-    /// widest kind.
-    pub(super) fn reservation_intersections(net: &crate::LaneNetwork) -> Vec<Intersection> {
-        let widest = net.kinds.iter().map(|k| k.width).fold(2.0, f64::max);
-        net.reservation_junctions
-            .iter()
-            .map(|&j| Intersection::of(net, j, widest, Margins::default()))
-            .collect()
-    }
-
-    /// Gives back the ways no longer driven, then lets the heads of the
-    /// approaches ask.
+    /// Tells the manager which ways are given back and which are held, lets
+    /// the heads of the approaches ask, and drives by its answer.
     pub(super) fn reserve_ways(&mut self) {
-        if self.intersections.is_empty() {
+        if self.net.reservation_junctions.is_empty() {
             return;
         }
-        self.give_back_ways();
-        let requests = self.requests();
-        for (k, intersection) in self.intersections.iter_mut().enumerate() {
-            let asking: Vec<Request> = requests
-                .iter()
-                .filter(|(r, _, _)| *r == k as u32)
-                .map(|(_, _, request)| *request)
-                .collect();
-            for id in intersection.decide(self.time, &asking) {
-                let grant = intersection.grant(id).expect("just granted");
-                let (_, i, _) = requests
-                    .iter()
-                    .find(|(_, _, r)| r.vehicle == id)
-                    .expect("granted vehicles asked");
-                self.vehicles[*i].grant = Some(Box::new(Driving::of(k as u32, grant)));
+        let mut round = Round {
+            time: self.time,
+            ..Round::default()
+        };
+        self.give_back_ways(&mut round);
+        round.requests = self.requests();
+        let Some(answer) = self.intersections.round(&round) else {
+            return;
+        };
+        let at: FxHashMap<VehicleId, usize> = self
+            .vehicles
+            .iter()
+            .enumerate()
+            .map(|(i, v)| (v.id, i))
+            .collect();
+        for m in answer.revoked {
+            if let Some(&i) = at.get(&m.vehicle) {
+                self.vehicles[i].grant = None;
             }
+        }
+        for g in answer.granted {
+            let Some(&i) = at.get(&g.vehicle) else {
+                continue;
+            };
+            let v = &mut self.vehicles[i];
+            let entered = g.again && v.grant.as_ref().is_some_and(|d| d.entered);
+            let mut driving = Driving::of(g);
+            driving.entered = entered;
+            v.grant = Some(Box::new(driving));
         }
     }
 
     /// A vehicle whose rear has left its intersection, or whose way no
     /// longer leads through the lane granted, gives its way back; so does
     /// one behind its plan that can still stop comfortably before its
-    /// entry (it asks again), and vehicles no longer on the map. One behind
-    /// its plan inside is planned again from where it is.
-    fn give_back_ways(&mut self) {
+    /// entry (it asks again). One behind its plan inside is to be planned
+    /// again from where it is; every other keeps its way.
+    fn give_back_ways(&mut self, round: &mut Round) {
         let net = &self.net;
         let config = &self.config.vehicle;
-        let now = self.time;
-        let mut holding: FxHashSet<VehicleId> = FxHashSet::default();
-        let mut revoked: Vec<(usize, VehicleId)> = Vec::new();
+        let margin = Margins::default().time;
         for v in &mut self.vehicles {
-            let Some(grant) = v.grant.as_ref() else {
+            let Some(grant) = v.grant.as_deref() else {
                 continue;
             };
-            let k = grant.intersection as usize;
-            let margin = self.intersections[k].margins().time;
+            let member = Member {
+                intersection: grant.intersection,
+                vehicle: v.id,
+            };
             let here = net.lane(v.path[0]).reservation();
             let entered = grant.entered || here == Some(grant.intersection);
             // Through once its rear has left the intersection and the reach
@@ -75,69 +80,55 @@ impl World {
                 && (!on_exit || v.rear_s() >= crate::reservation::EXIT_REACH);
             let off_way = !entered && v.first_junction_lane.is_none_or(|f| f.lane != grant.lane);
             let late = grant.behind_plan(margin);
+            let lane = grant.lane;
             if through {
-                self.intersections[k].finish(v.id);
+                round.finished.push(member);
                 v.grant = None;
                 continue;
             }
-            if off_way || (late && !entered && can_stop_before_entry(net, config, v)) {
-                self.intersections[k].release(v.id);
+            let can_stop = !entered && can_stop_before_entry(net, config, v);
+            if off_way || (late && can_stop) {
+                round.released.push(member);
                 v.grant = None;
                 continue;
             }
-            if late && entered {
-                let approach = approach_of(
-                    net,
-                    config,
-                    v,
-                    grant.lane,
-                    -along_movement(net, v, grant.lane),
-                );
-                if let Some((g, met)) = self.intersections[k].replan(v.id, now, approach) {
-                    let mut driving = Driving::of(k as u32, g);
-                    driving.entered = true;
-                    v.grant = Some(Box::new(driving));
-                    revoked.extend(met.into_iter().map(|id| (k, id)));
-                }
-            } else if let Some(g) = v.grant.as_mut() {
-                g.entered = entered;
+            if let Some(grant) = v.grant.as_mut() {
+                grant.entered = entered;
             }
-            holding.insert(v.id);
-        }
-        // Those whose ways a replanned vehicle now crosses, while they can
-        // still stop before their entry, ask again.
-        for (k, id) in revoked {
-            let Some(v) = self.vehicles.iter_mut().find(|v| v.id == id) else {
-                continue;
+            let to_entry = if entered {
+                -along_movement(net, v, lane)
+            } else {
+                v.first_junction_lane.map_or(0.0, |f| f.start - v.s)
             };
-            let not_in = v.grant.as_ref().is_some_and(|g| !g.entered);
-            if not_in && can_stop_before_entry(net, config, v) {
-                self.intersections[k].release(id);
-                v.grant = None;
-                holding.remove(&id);
-            }
+            round.holding.push(Holding {
+                intersection: member.intersection,
+                vehicle: v.id,
+                lane,
+                approach: approach_of(net, config, v, lane, to_entry),
+                replan: late && entered,
+                revocable: can_stop,
+            });
         }
-        for intersection in &mut self.intersections {
-            intersection.retain_granted(|id| holding.contains(&id));
-        }
+        // Vehicles taken off the map are in no list: the manager lets their
+        // ways go with those of every vehicle not holding one.
     }
 
-    /// (intersection, vehicle index, request) of the head of each approach
-    /// lane within [`ASK_WITHIN`] of a reservation intersection, without a
-    /// way yet.
-    fn requests(&self) -> Vec<(u32, usize, Request)> {
+    /// The request of the head of each approach lane within
+    /// [`crate::reservation::ask_distance`] of a reservation intersection,
+    /// without a way yet.
+    fn requests(&self) -> Vec<Request> {
         let net = &self.net;
         let config = &self.config.vehicle;
-        let mut heads: Vec<(u32, usize, Request)> = Vec::new();
-        for (i, v) in self.vehicles.iter().enumerate() {
+        // Each approach lane's head: its request and its place on the lane.
+        let mut heads: Vec<(Request, f64)> = Vec::new();
+        for v in &self.vehicles {
             if v.grant.is_some() || v.should_despawn {
                 continue;
             }
             let Some(first) = v.first_junction_lane.filter(|f| f.k == 1) else {
                 continue;
             };
-            let lane = net.lane(first.lane);
-            let Some(reservation) = lane.reservation() else {
+            let Some(intersection) = net.lane(first.lane).reservation() else {
                 continue;
             };
             let to_entry = first.start - v.s;
@@ -145,21 +136,18 @@ impl World {
                 continue;
             }
             let from = v.path[0];
-            let ahead_of_others = heads
-                .iter()
-                .position(|(_, _, r)| r.from == from)
-                .map(|k| (k, self.vehicles[heads[k].1].s < v.s));
             let request = Request {
+                intersection,
                 vehicle: v.id,
                 lane: first.lane,
                 from,
                 approach: approach_of(net, config, v, first.lane, to_entry.max(0.0)),
                 emergency: false,
             };
-            match ahead_of_others {
-                None => heads.push((reservation, i, request)),
-                Some((k, true)) => heads[k] = (reservation, i, request),
-                Some((_, false)) => {}
+            match heads.iter_mut().find(|(r, _)| r.from == from) {
+                None => heads.push((request, v.s)),
+                Some(head) if head.1 < v.s => *head = (request, v.s),
+                Some(_) => {}
             }
         }
         // An emergency vehicle waiting anywhere on an approach lane gives
@@ -170,10 +158,13 @@ impl World {
             .filter(|v| v.grant.is_none() && is_emergency(net, v))
             .map(|v| v.path[0])
             .collect();
-        for (_, _, request) in &mut heads {
-            request.emergency = with_emergency.contains(&request.from);
-        }
         heads
+            .into_iter()
+            .map(|(mut request, _)| {
+                request.emergency = with_emergency.contains(&request.from);
+                request
+            })
+            .collect()
     }
 }
 
