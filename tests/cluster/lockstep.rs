@@ -10,10 +10,9 @@ use trafficmesh_protocol::wire::{LockstepTick, TickReport};
 
 use crate::support::*;
 
-/// `sim`'s trajectory hash for the four-way map, seed 7 (the test clusters'),
-/// walkers on as in the cluster.
-fn sim_hash(duration: f64) -> String {
-    let map = four_way();
+/// `sim`'s trajectory hash for `map`, seed 7 (the test clusters'), walkers
+/// on as in the cluster.
+fn sim_hash(map: &std::path::Path, duration: f64) -> String {
     let out = trafficmesh_cli(&[
         "sim",
         "--map",
@@ -56,7 +55,7 @@ fn a_lockstep_cluster_runs_the_trajectories_of_sim() {
         let hash = cluster_hash(&log).unwrap_or_else(|| panic!("{name}: no closing line:\n{log}"));
         assert_eq!(
             hash,
-            sim_hash(duration),
+            sim_hash(&four_way(), duration),
             "{name}: the cluster's trajectories differ from sim's"
         );
         // The crosswalks answer every tick: their states never go stale.
@@ -69,6 +68,34 @@ fn a_lockstep_cluster_runs_the_trajectories_of_sim() {
             "{name}: the walkers never entered a crosswalk:\n{log}"
         );
     }
+}
+
+#[test]
+fn a_lockstep_cluster_with_a_reservation_intersection_runs_the_trajectories_of_sim() {
+    // Every way granted by the intersection service, as `sim` grants it.
+    let (_dir, map, _, _) = crate::intersection::reservation_four_way();
+    let mut cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
+        seed: 7,
+        stepper: "speed = 0\nduration = 60".into(),
+        pedestrians: true,
+        ..Cluster::spec("ls_reservation", &map)
+    });
+    let status = cluster.wait_exit(Duration::from_secs(120));
+    let log = cluster.log();
+    assert!(
+        status.is_some_and(|s| s.success()),
+        "`up` did not end cleanly after the duration ({status:?}):\n{log}"
+    );
+    let hash = cluster_hash(&log).unwrap_or_else(|| panic!("no closing line:\n{log}"));
+    assert_eq!(
+        hash,
+        sim_hash(&map, 60.0),
+        "the cluster's trajectories differ from sim's"
+    );
+    assert!(
+        !log.contains("no answer from the intersection service"),
+        "a round went unanswered:\n{log}"
+    );
 }
 
 #[test]

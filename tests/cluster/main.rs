@@ -5,6 +5,7 @@
 #[allow(dead_code)]
 mod support;
 
+mod intersection;
 mod lockstep;
 
 use std::collections::HashSet;

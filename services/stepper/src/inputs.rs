@@ -48,6 +48,9 @@ pub struct StepperStatus {
     pub batches_dropped: u64,
     pub lights_stale: bool,
     pub crosswalks_stale: bool,
+    /// The intersection service did not answer the last round: no way
+    /// through a reservation intersection is granted.
+    pub intersections_unanswered: bool,
     /// The run's trajectory hash so far (`sim` prints the same for the same run).
     #[serde(serialize_with = "hex")]
     pub trajectory_hash: u64,

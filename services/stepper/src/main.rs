@@ -5,6 +5,7 @@
 
 mod commands;
 mod inputs;
+mod intersections;
 mod lockstep;
 mod telemetry;
 mod tick_loop;
@@ -102,6 +103,13 @@ fn run(args: Args) -> Result<()> {
             let mut s = shared.status.lock().expect("status lock");
             s.vehicle_config = world.config().vehicle;
             s.lockstep = args.lockstep;
+        }
+        if !world.network().reservation_junctions.is_empty() {
+            world.use_intersection_manager(Box::new(intersections::RemoteIntersections::new(
+                bus.clone(),
+                tokio::runtime::Handle::current(),
+                shared.clone(),
+            )));
         }
         inputs::start(bus.clone(), tx.clone()).await?;
         let outputs = telemetry::start(bus.clone()).await?;

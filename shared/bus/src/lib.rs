@@ -18,7 +18,7 @@ pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
 pub use status::{BadPayloads, another_map, check_map, serve_status};
-pub use typed::Subscription;
+pub use typed::{Served, Subscription};
 
 use thiserror::Error;
 

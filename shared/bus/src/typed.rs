@@ -56,7 +56,7 @@ impl Bus {
     pub async fn serve<Req, Resp, F, Fut>(
         &self,
         call: &Call<Req, Resp>,
-        mut handler: F,
+        handler: F,
     ) -> Result<(), BusError>
     where
         Req: DeserializeOwned,
@@ -64,19 +64,48 @@ impl Bus {
         F: FnMut(Req) -> Fut,
         Fut: Future<Output = Result<Resp, String>>,
     {
-        let queryable = self.queryable(&self.keys().key(call)).await?;
-        while let Ok(query) = queryable.recv_async().await {
-            let Some(request) = self.query_payload::<Req>(&query).await else {
+        self.declare_call(call).await?.serve(self, handler).await;
+        Ok(())
+    }
+
+    /// Declares `call`'s queryable now, to be served later (by a task of
+    /// its own) with [`Served::serve`]: queries that come in between wait.
+    pub async fn declare_call<Req, Resp>(
+        &self,
+        call: &Call<Req, Resp>,
+    ) -> Result<Served<Req, Resp>, BusError> {
+        Ok(Served {
+            queryable: self.queryable(&self.keys().key(call)).await?,
+            types: std::marker::PhantomData,
+        })
+    }
+}
+
+/// A call's queryable, declared.
+pub struct Served<Req, Resp> {
+    queryable: zenoh::query::Queryable<FifoChannelHandler<zenoh::query::Query>>,
+    types: std::marker::PhantomData<fn(Req) -> Resp>,
+}
+
+impl<Req: DeserializeOwned, Resp: Serialize> Served<Req, Resp> {
+    /// Answers every query, one at a time, as [`Bus::serve`] does; returns
+    /// when the session closes.
+    pub async fn serve<F, Fut>(self, bus: &Bus, mut handler: F)
+    where
+        F: FnMut(Req) -> Fut,
+        Fut: Future<Output = Result<Resp, String>>,
+    {
+        while let Ok(query) = self.queryable.recv_async().await {
+            let Some(request) = bus.query_payload::<Req>(&query).await else {
                 continue;
             };
             match handler(request).await {
-                Ok(answer) => self.reply(&query, &answer).await,
+                Ok(answer) => bus.reply(&query, &answer).await,
                 Err(reason) => {
-                    self.reject(query.key_expr().as_str(), &reason);
-                    self.reply_error(&query, &reason).await;
+                    bus.reject(query.key_expr().as_str(), &reason);
+                    bus.reply_error(&query, &reason).await;
                 }
             }
         }
-        Ok(())
     }
 }

@@ -9,10 +9,10 @@ use std::marker::PhantomData;
 use trafficmesh_model::TrafficSpawnConfig;
 
 use crate::wire::{
-    AgentBatch, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, EgoPose,
-    EventBatch, Heartbeat, LightOverride, LightState, LockstepTick, ProposalBatch, ProposalResult,
-    RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest, ServiceStatus, SessionObjects,
-    SpawnAnswer, SpawnBatch, TickReport, VehicleBatch,
+    AgentBatch, Answer, BlockedStopAnswer, BlockedStopQuery, Clock, CrosswalkOccupancy, EgoPose,
+    EventBatch, Heartbeat, IntersectionView, LightOverride, LightState, LockstepTick,
+    ProposalBatch, ProposalResult, RemoveAnswer, RemoveTarget, RestartAnswer, RestartRequest,
+    Round, ServiceStatus, SessionObjects, SpawnAnswer, SpawnBatch, TickReport, VehicleBatch,
 };
 
 /// How a key is used.
@@ -151,6 +151,8 @@ pub const OCCUPANCY: Topic<CrosswalkOccupancy> =
 pub const CROSSWALKS_HEARTBEAT: Topic<Heartbeat> = Topic::new("crosswalks/heartbeat", Kind::Put);
 pub const BLOCKED_STOP: Call<BlockedStopQuery, BlockedStopAnswer> =
     Call::new("crosswalks/blocked_stop");
+pub const INTERSECTION_ROUND: Call<Round, Answer> = Call::new("intersection/round");
+pub const INTERSECTION_VIEW: Topic<IntersectionView> = Topic::new("intersection/view", Kind::Put);
 pub const LOCKSTEP_STEP: Call<LockstepTick, TickReport> = Call::new("lockstep/step/{member}");
 pub const LOCKSTEP_AGENTS: Call<LockstepTick, AgentBatch> = Call::new("lockstep/agents/{source}");
 pub const TRAFFIC_SESSION: Topic<SessionObjects> =
@@ -184,6 +186,8 @@ pub fn all() -> Vec<Declared> {
         OCCUPANCY.declared(),
         CROSSWALKS_HEARTBEAT.declared(),
         BLOCKED_STOP.declared(),
+        INTERSECTION_ROUND.declared(),
+        INTERSECTION_VIEW.declared(),
         LOCKSTEP_STEP.declared(),
         LOCKSTEP_AGENTS.declared(),
         TRAFFIC_SESSION.declared(),

@@ -47,6 +47,10 @@ pub struct ClusterConfig {
     pub traffic_service: TrafficServiceSettings,
     #[serde(default)]
     pub restart: RestartSection,
+    /// The map has reservation intersections: `up` starts the intersection
+    /// service (set from the map, not the file).
+    #[serde(skip)]
+    pub reservation_intersections: bool,
 }
 
 /// One service as `up` starts it.
@@ -174,11 +178,13 @@ impl ClusterConfig {
             flags
         };
         if lockstep {
-            stepper.extend([
-                "--lockstep".into(),
-                "--lockstep-members".into(),
-                "lights,crosswalks,spawner".into(),
-            ]);
+            // The intersection service too, where it runs: the first round
+            // then finds it up, as in `sim`.
+            let mut members = "lights,crosswalks,spawner".to_string();
+            if self.reservation_intersections {
+                members.push_str(",intersection");
+            }
+            stepper.extend(["--lockstep".into(), "--lockstep-members".into(), members]);
         }
         stepper.extend(self.vehicle.flags());
         let mut list: Vec<(&'static str, Vec<String>)> = vec![
@@ -203,6 +209,9 @@ impl ClusterConfig {
                 }),
             ),
         ];
+        if self.reservation_intersections {
+            list.push(("intersection", member(in_step(Vec::new()))));
+        }
         if self.pedestrians.enabled {
             list.push((
                 "pedestrians",

@@ -86,6 +86,7 @@ pub fn run(a: UpArgs) -> Result<()> {
         (None, None) => unreachable!("ClusterConfig::load checks that one is given"),
     };
     check_spawn_config(&mut config, &net, &a.config, map_given)?;
+    config.reservation_intersections = !net.reservation_junctions.is_empty();
     trafficmesh_protocol::Keys::new(&config.cluster)?;
     if let Some(dir) = config.spawner.branch_csv.parent()
         && !dir.as_os_str().is_empty()

@@ -7,6 +7,7 @@
 
 mod agents;
 mod commands;
+mod intersections;
 mod lockstep;
 mod sessions;
 mod states;
@@ -18,6 +19,7 @@ pub use commands::{
     ExternalProposal, ProposalBatch, ProposalResult, RemoveAnswer, RemoveTarget, RestartAnswer,
     RestartRequest, SpawnAnswer, SpawnBatch, SpawnOrder, SpawnVerdict,
 };
+pub use intersections::{Answer, ApproachQueue, IntersectionView, ReservedBox, Round};
 pub use lockstep::{LockstepTick, TickReport};
 pub use sessions::{SessionObject, SessionObjects};
 pub use states::{

@@ -245,6 +245,30 @@ impl Intersection {
         self.granted.get(&id)
     }
 
+    /// Each approach lane (in lane order) with how long its head has waited
+    /// for a way at `now` (0: none waits), for the live map.
+    pub fn approaches(&self, now: f64) -> Vec<(LaneId, f64)> {
+        let mut lanes: Vec<LaneId> = self
+            .movements
+            .iter()
+            .flat_map(|m| m.from.iter().copied())
+            .collect();
+        lanes.sort_unstable();
+        lanes.dedup();
+        lanes
+            .into_iter()
+            .map(|lane| {
+                let waited = self
+                    .waiting
+                    .iter()
+                    .filter(|w| w.request.from == lane)
+                    .map(|w| now - w.since)
+                    .fold(0.0, f64::max);
+                (lane, waited)
+            })
+            .collect()
+    }
+
     /// The reservations ahead of `now`, for the live map.
     pub fn reserved_ahead(
         &self,
