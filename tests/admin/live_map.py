@@ -1,10 +1,12 @@
 """The live map in headless Chromium, driven over the DevTools protocol.
 
-Usage: live_map.py CHROMIUM URL OUT_DIR. Prints OK and exits 0 when:
+Usage: live_map.py CHROMIUM URL OUT_DIR [reservations]. Prints OK and exits 0 when:
 - the page loads and draws vehicles from the live stream, with no console
   error and no uncaught exception;
 - two screenshots a second apart (panels hidden, so only the map is compared)
   differ where vehicles are, and the page saw newer ticks in between.
+- with `reservations`: the debug layer draws reserved rectangles and a queue
+  label on every approach of the map's reservation intersection.
 Screenshots are written to OUT_DIR for a human to look at.
 """
 import base64
@@ -22,6 +24,7 @@ import websocket  # websocket-client from PyPI
 from PIL import Image, ImageChops
 
 CHROMIUM, URL, OUT = sys.argv[1], sys.argv[2], sys.argv[3]
+RESERVATIONS = len(sys.argv) > 4 and sys.argv[4] == "reservations"
 
 
 def fail(msg):
@@ -92,6 +95,20 @@ try:
     else:
         fail(f"no vehicles drawn within 30 s: {state}")
 
+    if RESERVATIONS:
+        evaluate("document.getElementById('showGizmos').click()")
+        deadline = time.time() + 30
+        while time.time() < deadline:
+            state = json.loads(evaluate("JSON.stringify(window.trafficmesh)"))
+            if state["drawnReserved"] > 0 and state["drawnQueues"] >= 8:
+                break
+            time.sleep(0.2)
+        else:
+            fail(f"no reserved ways or queues drawn within 30 s: {state}")
+        data = base64.b64decode(call("Page.captureScreenshot", format="png")["data"])
+        with open(os.path.join(OUT, "live_map_reservations.png"), "wb") as f:
+            f.write(data)
+
     # Only the map: the panels show a clock that changes by itself.
     evaluate("document.querySelectorAll('.panel').forEach(p => p.style.visibility = 'hidden')")
     time.sleep(0.3)
@@ -133,7 +150,7 @@ try:
     problems += [f"page error: {e}" for e in after["errors"]]
     if problems:
         fail("\n".join(problems))
-    print(f"OK: {seen['drawnVehicles']} vehicles drawn, {changed} pixels moved in 1 s, "
+    print(f"OK: {seen['drawnVehicles']} vehicles drawn, {seen['drawnReserved']} reserved rectangles, {changed} pixels moved in 1 s, "
           f"{batches_per_s:.1f} batches/s received, {frames_per_s:.1f} frames/s drawn")
 finally:
     browser.kill()

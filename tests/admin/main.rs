@@ -838,3 +838,29 @@ fn the_live_map_shows_moving_vehicles_in_headless_chromium() {
         "live map check failed:\n{stdout}\n{stderr}"
     );
 }
+
+#[test]
+fn the_live_map_draws_the_reserved_ways_and_the_queues_in_headless_chromium() {
+    let (Some(browser), Some(python)) = (
+        chromium(),
+        trafficmesh_testkit::python_with("websocket, PIL", "websocket-client pillow"),
+    ) else {
+        return;
+    };
+    let (_map_dir, map, _, _) = reservation_four_way();
+    let cluster = Cluster::start_on_with_admin("adminreserved", &map, "max_vehicles = 30", false);
+    let out = std::process::Command::new(python)
+        .arg(repo().join("tests/admin/live_map.py"))
+        .arg(browser)
+        .arg(format!("{}/", cluster.admin.as_ref().unwrap()))
+        .arg(cluster.dir.path())
+        .arg("reservations")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success() && stdout.contains("OK"),
+        "live map check failed:\n{stdout}\n{stderr}"
+    );
+}

@@ -73,7 +73,7 @@ fn a_lockstep_cluster_runs_the_trajectories_of_sim() {
 #[test]
 fn a_lockstep_cluster_with_a_reservation_intersection_runs_the_trajectories_of_sim() {
     // Every way granted by the intersection service, as `sim` grants it.
-    let (_dir, map, _, _) = crate::intersection::reservation_four_way();
+    let (_dir, map, _, _) = reservation_four_way();
     let mut cluster = Cluster::launch_spec(trafficmesh_testkit::ClusterSpec {
         seed: 7,
         stepper: "speed = 0\nduration = 60".into(),

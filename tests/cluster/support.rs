@@ -1,6 +1,7 @@
 //! A real cluster per test: `trafficmesh up` with its own cluster name, port
 //! and files, and a Zenoh client session that talks to it like any user's.
 
+use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 use trafficmesh_protocol::topics;
@@ -17,6 +18,34 @@ pub fn repo() -> PathBuf {
 
 pub fn four_way() -> PathBuf {
     repo().join("configs/maps/four_way.map.json")
+}
+
+/// The four-way map with its junction run by reservations; its folder and
+/// the lanes inside the junction and leading into it (by map index).
+pub fn reservation_four_way() -> (
+    tempfile::TempDir,
+    std::path::PathBuf,
+    HashSet<u32>,
+    HashSet<u32>,
+) {
+    let mut m: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(four_way()).unwrap()).unwrap();
+    m["intersections"] = serde_json::json!([{ "lane": "J0_0_E0_S", "controller": "reservation" }]);
+    let lanes = m["lanes"].as_array().unwrap();
+    let indices = |pred: &dyn Fn(&serde_json::Value) -> bool| -> HashSet<u32> {
+        lanes
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| pred(l))
+            .map(|(i, _)| i as u32)
+            .collect()
+    };
+    let inside = indices(&|l| l["intersection"].as_bool().unwrap_or(false));
+    let approaches = indices(&|l| l["name"].as_str().unwrap_or("").contains("_in_"));
+    let dir = LocalCluster::folder().unwrap();
+    let path = dir.path().join("reservation_four_way.map.json");
+    std::fs::write(&path, m.to_string()).unwrap();
+    (dir, path, inside, approaches)
 }
 
 /// `../shared/maps/<name>`; a notice and None when the folder is absent,

@@ -1,6 +1,7 @@
 //! The live map: the page and its script (embedded: nothing comes from the
 //! network at run time), and a WebSocket that streams the newest vehicle batch
-//! (binary, the bus layout unchanged) and light/crosswalk states (JSON text)
+//! (binary, the bus layout unchanged), light/crosswalk states, the traffic
+//! service's sessions and the reservation intersections' view (JSON text)
 //! when they change.
 
 use std::sync::Arc;
@@ -57,6 +58,7 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
     let mut interval = tokio::time::interval(period);
     interval.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let (mut sent_batch, mut sent_states, mut sent_sessions) = (0u64, None::<u64>, 0u64);
+    let mut sent_intersections = 0u64;
     loop {
         tokio::select! {
             _ = interval.tick() => {}
@@ -65,8 +67,16 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
                 Some(Ok(_)) => continue,
             },
         }
-        let (batch, states, sessions) = {
+        let (batch, states, sessions, intersections) = {
             let v = app.view.read();
+            let intersections = v
+                .intersections
+                .as_ref()
+                .filter(|_| v.intersections_version != sent_intersections)
+                .map(|x| {
+                    let text = serde_json::json!({"type": "intersections", "view": x});
+                    (v.intersections_version, text.to_string())
+                });
             // Sent again while any is live, so that one that falls silent goes away.
             let live = v.live_sessions();
             let sessions = (v.sessions_version != sent_sessions || !live.is_empty()).then(|| {
@@ -92,8 +102,14 @@ async fn stream(app: Arc<App>, mut socket: WebSocket, period: Duration) {
                 let text = serde_json::json!({"type": "states", "lights": lights, "crosswalks": crosswalks});
                 (v.states_version, text.to_string())
             });
-            (batch, states, sessions)
+            (batch, states, sessions, intersections)
         };
+        if let Some((version, text)) = intersections {
+            if socket.send(Message::Text(text.into())).await.is_err() {
+                return;
+            }
+            sent_intersections = version;
+        }
         if let Some((version, text)) = sessions {
             if socket.send(Message::Text(text.into())).await.is_err() {
                 return;

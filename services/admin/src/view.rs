@@ -11,7 +11,7 @@ use trafficmesh_protocol::topics;
 use anyhow::Result;
 use trafficmesh_bus::Bus;
 use trafficmesh_protocol::wire::{
-    Clock, CrosswalkOccupancy, LightState, ServiceStatus, SessionObjects,
+    Clock, CrosswalkOccupancy, IntersectionView, LightState, ServiceStatus, SessionObjects,
 };
 use zenoh::bytes::ZBytes;
 use zenoh::sample::SampleKind;
@@ -35,6 +35,10 @@ pub struct ViewState {
     pub sessions: BTreeMap<String, (SessionObjects, Instant)>,
     /// Bumped on every session answer, so the live map sends them only then.
     pub sessions_version: u64,
+    /// The intersection service's newest view of its reservation intersections.
+    pub intersections: Option<IntersectionView>,
+    /// Bumped on every view, so the live map sends each one at most once.
+    pub intersections_version: u64,
 }
 
 /// A session silent for this long is no longer drawn, seconds.
@@ -132,6 +136,16 @@ impl ClusterView {
                 let mut v = view.write();
                 v.sessions.insert(name, (s, Instant::now()));
                 v.sessions_version += 1;
+            }
+        });
+
+        let intersections = bus.subscribe_to(&topics::INTERSECTION_VIEW).await?;
+        let (view, b) = (self.clone(), bus.clone());
+        tokio::spawn(async move {
+            while let Some(x) = intersections.latest(&b).await {
+                let mut v = view.write();
+                v.intersections = Some(x);
+                v.intersections_version += 1;
             }
         });
 

@@ -18,7 +18,7 @@ const statusBox = document.getElementById("status");
 const vehicleBox = document.getElementById("vehicle");
 
 // Exposed for tests and for the curious: what the page has seen and drawn.
-const live = { frames: 0, batches: 0, drawnVehicles: 0, drawnActors: 0, tick: null, errors: [] };
+const live = { frames: 0, batches: 0, drawnVehicles: 0, drawnActors: 0, drawnReserved: 0, drawnQueues: 0, tick: null, errors: [] };
 window.trafficmesh = live;
 
 let map = null;
@@ -28,6 +28,10 @@ let states = { lights: {}, crosswalks: {} };
 // The traffic service's sessions: each one's actors as box centres (docs/traffic-service.md).
 let sessions = [];
 const DRIVER_COLORS = { log: "#8b949e", model: "#d29922", client: "#58a6ff", static: "#6e7681" };
+// The reservation intersections' view: rectangles reserved ahead, each approach's head (docs/cluster.md).
+let intersections = null;
+// How far ahead the reserved rectangles are drawn, seconds (they fade out to it).
+const RESERVED_AHEAD = 5;
 const view = { scale: 1, x: 0, y: 0 }; // screen = (world - (x, y)) * scale, y flipped
 let dirty = true;
 // The lanes, drawn once per view (pan, zoom, resize) instead of every frame.
@@ -38,7 +42,7 @@ let selected = null;
 function layer(id) {
   return document.getElementById(id).checked;
 }
-for (const id of ["showGizmos", "showYieldingPhase", "showObstacleChecking", "showSpawnPoints"]) {
+for (const id of ["showGizmos", "showYieldingPhase", "showObstacleChecking", "showSpawnPoints", "showReservations"]) {
   document.getElementById(id).addEventListener("change", () => { dirty = true; });
 }
 document.getElementById("legend").innerHTML =
@@ -255,6 +259,7 @@ function draw() {
     }
   }
   live.drawnVehicles = drawn;
+  if (gizmos && layer("showReservations")) drawReservations();
   let actors = 0;
   worldTransform(ctx);
   for (const s of sessions) {
@@ -273,6 +278,54 @@ function draw() {
   }
   live.drawnActors = actors;
   live.frames++;
+}
+
+// Each vehicle's granted way: its rectangles ahead in time, fading out with
+// time; at each approach lane's end, the vehicles standing on it and how long
+// its head has waited for a way.
+function drawReservations() {
+  let reserved = 0, queues = 0;
+  if (!intersections) { live.drawnReserved = 0; live.drawnQueues = 0; return; }
+  worldTransform(ctx);
+  const px = 1 / view.scale;
+  for (const r of intersections.reserved) {
+    const c = Math.cos(r.yaw), sn = Math.sin(r.yaw), hl = r.length / 2, hw = r.width / 2;
+    const fade = Math.max(0.08, 0.55 * (1 - r.ahead_s / RESERVED_AHEAD));
+    const hue = (r.vehicle * 137) % 360;
+    ctx.beginPath();
+    ctx.moveTo(r.x + c * hl - sn * hw, r.y + sn * hl + c * hw);
+    ctx.lineTo(r.x + c * hl + sn * hw, r.y + sn * hl - c * hw);
+    ctx.lineTo(r.x - c * hl + sn * hw, r.y - sn * hl - c * hw);
+    ctx.lineTo(r.x - c * hl - sn * hw, r.y - sn * hl + c * hw);
+    ctx.closePath();
+    ctx.fillStyle = `hsla(${hue}, 80%, 60%, ${fade * 0.5})`;
+    ctx.fill();
+    ctx.strokeStyle = `hsla(${hue}, 80%, 65%, ${fade})`;
+    ctx.lineWidth = px;
+    ctx.stroke();
+    reserved++;
+  }
+  const standing = new Map();
+  if (batch) {
+    for (let i = 0; i < batch.count; i++) {
+      const v = vehicle(i);
+      if (v.speed < 0.5) standing.set(v.lane, (standing.get(v.lane) || 0) + 1);
+    }
+  }
+  ctx.setTransform(1, 0, 0, 1, 0, 0);
+  ctx.font = `${11 * devicePixelRatio}px system-ui`;
+  for (const a of intersections.approaches) {
+    const lane = map.lanes[a.lane];
+    if (!lane || lane.points.length === 0) continue;
+    const [x, y] = lane.points[lane.points.length - 1];
+    const sx = (x - view.x) * view.scale, sy = (view.y - y) * view.scale;
+    const n = standing.get(a.lane) || 0;
+    ctx.fillStyle = a.head_waiting_s > 0 ? "#e3b341" : "#8b949e";
+    ctx.fillText(a.head_waiting_s > 0 ? `${n} · ${a.head_waiting_s.toFixed(0)} s` : `${n}`, sx + 4, sy - 4);
+    queues++;
+  }
+  live.drawnReserved = reserved;
+  live.drawnQueues = queues;
 }
 
 function pick(px, py) {
@@ -329,6 +382,7 @@ function connect() {
       const m = JSON.parse(e.data);
       if (m.type === "states") states = m;
       if (m.type === "sessions") sessions = m.sessions;
+      if (m.type === "intersections") intersections = m.view;
     } else {
       batch = readBatch(e.data);
       live.batches++;
