@@ -4,6 +4,7 @@
 //! again. An overlap check runs on every vehicle batch throughout.
 
 use std::collections::HashSet;
+use std::f64::consts::{FRAC_PI_2, FRAC_PI_4};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
@@ -180,8 +181,8 @@ fn the_overlap_check_tells_bodies_in_each_other_from_bodies_apart() {
         "a gap between"
     );
     // Crossing at right angles: apart only once clear of the other's width.
-    assert!(overlap(car(0.0, 0.0, 0.0), car(0.0, 3.0, 1.5708)));
-    assert!(!overlap(car(0.0, 0.0, 0.0), car(0.0, 3.3, 1.5708)));
+    assert!(overlap(car(0.0, 0.0, 0.0), car(0.0, 3.0, FRAC_PI_2)));
+    assert!(!overlap(car(0.0, 0.0, 0.0), car(0.0, 3.3, FRAC_PI_2)));
     // Diagonal: the corners decide, not the centres' distance alone.
-    assert!(!overlap(car(0.0, 0.0, 0.0), car(3.8, 2.8, 0.7854)));
+    assert!(!overlap(car(0.0, 0.0, 0.0), car(3.8, 2.8, FRAC_PI_4)));
 }
