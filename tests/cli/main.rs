@@ -358,6 +358,7 @@ fn bench_saturation_gives_each_models_discharge_rate() {
 fn bench_intersection_compares_reservations_with_lights() {
     let dir = tempfile::tempdir().unwrap();
     let csv = dir.path().join("table.csv");
+    let plot = dir.path().join("delay.png");
     let out = trafficmesh(&[
         "bench",
         "intersection",
@@ -367,6 +368,8 @@ fn bench_intersection_compares_reservations_with_lights() {
         "300",
         "--csv",
         csv.to_str().unwrap(),
+        "--plot",
+        plot.to_str().unwrap(),
         "--json",
     ]);
     assert!(
@@ -415,6 +418,21 @@ fn bench_intersection_compares_reservations_with_lights() {
         table.starts_with(
             "controller,demand_vphpl,served_vphpl,mean_delay_s,p95_delay_s,collisions"
         )
+    );
+    // The plot: a whole PNG of the size drawn (its header and IHDR chunk).
+    let png = std::fs::read(&plot).expect("the plot is written");
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n", "not a PNG");
+    let width = u32::from_be_bytes(png[16..20].try_into().unwrap());
+    let height = u32::from_be_bytes(png[20..24].try_into().unwrap());
+    assert_eq!((width, height), (900, 560));
+    assert_eq!(
+        &png[png.len() - 8..png.len() - 4],
+        b"IEND",
+        "a truncated PNG"
+    );
+    assert!(
+        !dir.path().join("delay.partial.png").exists(),
+        "the temporary file stayed"
     );
 }
 

@@ -45,6 +45,9 @@ pub struct IntersectionArgs {
     /// Where to write the table as CSV.
     #[arg(long, default_value = "out/bench-intersection.csv")]
     csv: PathBuf,
+    /// Where to draw mean and p95 delay against demand, per controller (PNG).
+    #[arg(long, default_value = "out/bench-intersection.png")]
+    plot: PathBuf,
     /// Print one JSON object `{"rows": [...]}` instead of the table.
     #[arg(long)]
     json: bool,
@@ -309,6 +312,18 @@ pub fn run_bench(a: IntersectionArgs) -> Result<()> {
     progress.finish_and_clear();
     let decisions = decision_times(&base, a.seed)?;
     write_csv(&a.csv, &rows)?;
+    let lines: Vec<super::delay_plot::Line> = ["lights", "reservation"]
+        .into_iter()
+        .map(|controller| super::delay_plot::Line {
+            controller,
+            points: rows
+                .iter()
+                .filter(|r| r.controller == controller)
+                .map(|r| (r.demand_vphpl, r.mean_delay_s, r.p95_delay_s))
+                .collect(),
+        })
+        .collect();
+    super::delay_plot::write(&a.plot, &lines)?;
     if a.json {
         println!(
             "{}",
@@ -340,8 +355,9 @@ pub fn run_bench(a: IntersectionArgs) -> Result<()> {
             decisions.rounds
         );
         println!(
-            "(vehicles per hour per lane; delays in seconds; jams: jam-timeout resolutions; table in {})",
-            a.csv.display()
+            "(vehicles per hour per lane; delays in seconds; jams: jam-timeout resolutions; table in {}, plot in {})",
+            a.csv.display(),
+            a.plot.display()
         );
     }
     Ok(())

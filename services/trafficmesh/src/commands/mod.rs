@@ -14,6 +14,8 @@ mod bench_up;
 #[cfg(feature = "bench")]
 pub mod bench_vs_sumo;
 pub mod cluster_config;
+#[cfg(feature = "bench")]
+mod delay_plot;
 pub mod ego;
 pub mod gen_grid;
 pub mod import;
