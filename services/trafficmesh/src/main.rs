@@ -41,6 +41,8 @@ enum Command {
     Watch(commands::watch::WatchArgs),
     /// Publish an ego vehicle pose on the bus.
     Ego(commands::ego::EgoArgs),
+    /// The Zenoh router of a cluster spread over several hosts (see deploy/).
+    Router(commands::router::RouterArgs),
     /// Benchmarks that print their figures.
     #[cfg(feature = "bench")]
     #[command(subcommand)]
@@ -59,6 +61,7 @@ fn main() -> ExitCode {
         Command::Up(args) => commands::up::run(args),
         Command::Watch(args) => commands::watch::run(args),
         Command::Ego(args) => commands::ego::run(args),
+        Command::Router(args) => commands::router::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

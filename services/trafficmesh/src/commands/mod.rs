@@ -21,6 +21,7 @@ pub mod gen_grid;
 pub mod import;
 #[cfg(feature = "bench")]
 mod memory;
+pub mod router;
 pub mod sim;
 pub mod up;
 pub mod watch;

@@ -1,0 +1,335 @@
+//! deploy/ on three hosts: network namespaces joined by a bridge (addresses
+//! only inside them), each service started from its systemd unit's
+//! ExecStart with deploy/cluster.env and the Zenoh configs of deploy/zenoh,
+//! the router found by name as on real hosts. Needs root and iproute2: a
+//! notice and a skip without them, unless TRAFFICMESH_REQUIRE_NETNS=1 (CI).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command};
+use std::time::{Duration, Instant};
+
+fn repo() -> PathBuf {
+    trafficmesh_testkit::repo_root()
+}
+
+fn deploy() -> PathBuf {
+    repo().join("deploy")
+}
+
+/// Runs `ip` with `args`; panics with its error output on failure.
+fn ip(args: &[&str]) {
+    let out = Command::new("ip").args(args).output().expect("ip runs");
+    assert!(
+        out.status.success(),
+        "ip {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Can this process make network namespaces?
+fn netns_available() -> bool {
+    let root = unsafe { libc::geteuid() } == 0;
+    let ip = Command::new("ip")
+        .args(["netns", "list"])
+        .output()
+        .is_ok_and(|o| o.status.success());
+    if root && ip {
+        return true;
+    }
+    if std::env::var("TRAFFICMESH_REQUIRE_NETNS").is_ok_and(|v| v == "1") {
+        panic!("TRAFFICMESH_REQUIRE_NETNS=1 but this is not root with iproute2");
+    }
+    eprintln!("NOTICE: skipped: network namespaces need root and iproute2");
+    false
+}
+
+/// Hosts as network namespaces on one bridge (itself in a namespace of its
+/// own), 10.77.0.<n>/24; each host resolves `trafficmesh-router` to the
+/// first. Removed, with their processes, on drop.
+struct Hosts {
+    prefix: String,
+    count: usize,
+    children: Vec<(String, Child)>,
+}
+
+impl Hosts {
+    fn new(count: usize) -> Hosts {
+        let prefix = format!("tm{}", std::process::id() % 100_000);
+        let hosts = Hosts {
+            prefix,
+            count,
+            children: Vec::new(),
+        };
+        let sw = hosts.switch();
+        ip(&["netns", "add", &sw]);
+        ip(&["-n", &sw, "link", "add", "br0", "type", "bridge"]);
+        ip(&["-n", &sw, "link", "set", "br0", "up"]);
+        for n in 1..=count {
+            let host = hosts.name(n);
+            ip(&["netns", "add", &host]);
+            let (outside, inside) = (format!("s{n}"), format!("{}e{n}", hosts.prefix));
+            ip(&[
+                "-n", &sw, "link", "add", &outside, "type", "veth", "peer", "name", &inside,
+                "netns", &host,
+            ]);
+            ip(&["-n", &sw, "link", "set", &outside, "master", "br0", "up"]);
+            ip(&[
+                "-n",
+                &host,
+                "addr",
+                "add",
+                &format!("10.77.0.{n}/24"),
+                "dev",
+                &inside,
+            ]);
+            ip(&["-n", &host, "link", "set", &inside, "up"]);
+            ip(&["-n", &host, "link", "set", "lo", "up"]);
+            // `ip netns exec` puts /etc/netns/<name>/hosts over /etc/hosts.
+            let etc = PathBuf::from("/etc/netns").join(&host);
+            std::fs::create_dir_all(&etc).unwrap();
+            std::fs::write(
+                etc.join("hosts"),
+                "127.0.0.1 localhost\n10.77.0.1 trafficmesh-router\n",
+            )
+            .unwrap();
+        }
+        hosts
+    }
+
+    fn switch(&self) -> String {
+        format!("{}sw", self.prefix)
+    }
+
+    fn name(&self, n: usize) -> String {
+        format!("{}h{n}", self.prefix)
+    }
+
+    /// `command` on host `n` with `env`, its output in `log`.
+    fn spawn(&mut self, n: usize, what: &str, command: &[String], env: &Env, log: &Path) {
+        let file = std::fs::File::create(log).unwrap();
+        let child = Command::new("ip")
+            .args(["netns", "exec", &self.name(n)])
+            .args(command)
+            .env_clear()
+            .envs(env)
+            .env("RUST_LOG", "info,zenoh=warn")
+            .stdout(file.try_clone().unwrap())
+            .stderr(file)
+            .spawn()
+            .unwrap();
+        self.children.push((what.to_string(), child));
+    }
+}
+
+impl Drop for Hosts {
+    fn drop(&mut self) {
+        for (_, child) in &mut self.children {
+            unsafe { libc::kill(child.id() as i32, libc::SIGTERM) };
+        }
+        let deadline = Instant::now() + Duration::from_secs(10);
+        for (_, child) in &mut self.children {
+            while child.try_wait().ok().flatten().is_none() && Instant::now() < deadline {
+                std::thread::sleep(Duration::from_millis(50));
+            }
+            let _ = child.kill();
+            let _ = child.wait();
+        }
+        for n in 1..=self.count {
+            let _ = Command::new("ip")
+                .args(["netns", "del", &self.name(n)])
+                .status();
+            let _ = std::fs::remove_dir_all(PathBuf::from("/etc/netns").join(self.name(n)));
+        }
+        let _ = Command::new("ip")
+            .args(["netns", "del", &self.switch()])
+            .status();
+    }
+}
+
+type Env = BTreeMap<String, String>;
+
+/// deploy/cluster.env as `KEY=value` lines.
+fn cluster_env() -> Env {
+    std::fs::read_to_string(deploy().join("cluster.env"))
+        .unwrap()
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with('#'))
+        .map(|l| {
+            let (k, v) = l.split_once('=').expect("KEY=value");
+            (k.to_string(), v.to_string())
+        })
+        .collect()
+}
+
+/// A unit's ExecStart, split into words, its `${VAR}`s from `env`, the
+/// installed paths (/usr/local/bin, /etc/trafficmesh/zenoh) mapped to this
+/// build and this checkout.
+fn exec_start(service: &str, env: &Env, bin: &Path) -> Vec<String> {
+    let unit =
+        std::fs::read_to_string(deploy().join(format!("systemd/trafficmesh-{service}.service")))
+            .unwrap();
+    assert!(
+        unit.contains("EnvironmentFile=/etc/trafficmesh/cluster.env"),
+        "{service}: the unit does not read cluster.env"
+    );
+    let line = unit
+        .lines()
+        .find_map(|l| l.strip_prefix("ExecStart="))
+        .unwrap_or_else(|| panic!("{service}: no ExecStart"));
+    line.split_whitespace()
+        .map(|word| {
+            let mut word = word
+                .replace("/usr/local/bin", &bin.display().to_string())
+                .replace(
+                    "/etc/trafficmesh/zenoh",
+                    &deploy().join("zenoh").display().to_string(),
+                );
+            for (k, v) in env {
+                word = word.replace(&format!("${{{k}}}"), v);
+            }
+            assert!(
+                !word.contains("${"),
+                "{service}: {word} names no cluster.env entry"
+            );
+            word
+        })
+        .collect()
+}
+
+#[test]
+fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_third() {
+    if !netns_available() {
+        return;
+    }
+    let bin = PathBuf::from(env!("CARGO_BIN_EXE_trafficmesh"))
+        .parent()
+        .unwrap()
+        .to_path_buf();
+    let dir = tempfile::tempdir().unwrap();
+    let mut env = cluster_env();
+    for key in [
+        "TRAFFICMESH_CLUSTER",
+        "TRAFFICMESH_ZENOH_CONFIG",
+        "TRAFFICMESH_MAP",
+        "TRAFFICMESH_SEED",
+        "TRAFFICMESH_STATE",
+        "TRAFFICMESH_ADMIN_BIND",
+    ] {
+        assert!(env.contains_key(key), "cluster.env has no {key}");
+    }
+    // This checkout's files in place of the installed ones.
+    let state = dir.path().join("state");
+    std::fs::create_dir_all(&state).unwrap();
+    env.insert(
+        "TRAFFICMESH_CLUSTER".into(),
+        format!("deploy{}", std::process::id()),
+    );
+    env.insert(
+        "TRAFFICMESH_ZENOH_CONFIG".into(),
+        deploy().join("zenoh/service.json5").display().to_string(),
+    );
+    env.insert(
+        "TRAFFICMESH_MAP".into(),
+        repo()
+            .join("configs/maps/four_way.map.json")
+            .display()
+            .to_string(),
+    );
+    env.insert("TRAFFICMESH_STATE".into(), state.display().to_string());
+    env.insert("PATH".into(), std::env::var("PATH").unwrap_or_default());
+
+    let mut hosts = Hosts::new(3);
+    // Host 1: the router and the stepper; host 2: every other service;
+    // host 3: a user's `trafficmesh watch`.
+    let placement: [(usize, &[&str]); 2] = [
+        (1, &["router", "stepper"]),
+        (
+            2,
+            &[
+                "spawner",
+                "lights",
+                "crosswalks",
+                "pedestrians",
+                "intersection",
+                "admin",
+            ],
+        ),
+    ];
+    for (host, services) in placement {
+        for service in services {
+            let command = exec_start(service, &env, &bin);
+            let log = dir.path().join(format!("{service}.log"));
+            hosts.spawn(host, service, &command, &env, &log);
+        }
+    }
+    let watch_log = dir.path().join("watch.log");
+    let mut watch = vec![bin.join("trafficmesh").display().to_string()];
+    watch.extend(["watch".into(), "--count".into(), "12".into()]);
+    hosts.spawn(3, "watch", &watch, &env, &watch_log);
+    let logs = || {
+        std::fs::read_dir(dir.path())
+            .unwrap()
+            .filter_map(|e| {
+                let p = e.ok()?.path();
+                (p.extension()? == "log").then(|| {
+                    format!(
+                        "---- {}\n{}",
+                        p.display(),
+                        std::fs::read_to_string(&p).unwrap_or_default()
+                    )
+                })
+            })
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    // The watcher's lines, until it has printed its twelve.
+    let deadline = Instant::now() + Duration::from_secs(60);
+    let watcher = hosts
+        .children
+        .iter_mut()
+        .find(|(what, _)| what == "watch")
+        .map(|(_, c)| c)
+        .unwrap();
+    while watcher.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < deadline, "watch never ended:\n{}", logs());
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    let text = std::fs::read_to_string(&watch_log).unwrap();
+    let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("t=")).collect();
+    assert!(lines.len() >= 3, "no clock reached host 3:\n{}", logs());
+    let figure = |line: &str, key: &str| -> f64 {
+        line.split_whitespace()
+            .find_map(|w| w.strip_prefix(key))
+            .map(|v| v.trim_end_matches('s').parse().unwrap())
+            .unwrap_or_else(|| panic!("no {key} in {line}"))
+    };
+    let last = lines[lines.len() - 1];
+    assert!(
+        figure(last, "t=") > figure(lines[0], "t=") + 1.0,
+        "the clock did not advance:\n{text}"
+    );
+    assert!(
+        figure(last, "vehicles=") > 0.0,
+        "no vehicles spawned across hosts:\n{}",
+        logs()
+    );
+    let up = last.rsplit("up: ").next().unwrap();
+    for service in [
+        "stepper",
+        "spawner",
+        "lights",
+        "crosswalks",
+        "pedestrians",
+        "intersection",
+        "admin",
+    ] {
+        assert!(
+            up.split(',').any(|s| s == service),
+            "{service} not alive as seen from host 3: {last}\n{}",
+            logs()
+        );
+    }
+}
