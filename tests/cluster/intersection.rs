@@ -124,6 +124,19 @@ fn killing_the_intersection_service_stops_entries_and_a_restart_lets_traffic_cro
         // before the entry: 12 s is ample); after that nobody enters, and
         // the heads of the approaches stand at their stop lines.
         let (mut waiting, mut judged) = (0, 0);
+        let status_args = [
+            "status".to_string(),
+            "--json".into(),
+            "--cluster".into(),
+            cluster.name.clone(),
+            "--connect".into(),
+            cluster.endpoint.clone(),
+        ];
+        let health: serde_json::Value =
+            serde_json::from_str(&trafficmesh_cli(&status_args)).unwrap();
+        assert_eq!(health["degraded"], true, "{health}");
+        assert_eq!(health["services"]["stepper"]["alive"], true, "{health}");
+        let degraded_seen = health["reasons"].to_string();
         while stepper_unanswered().await {
             let b = batches.latest().await;
             if b.time < killed_at + GRANTED_THROUGH {
@@ -148,6 +161,11 @@ fn killing_the_intersection_service_stops_entries_and_a_restart_lets_traffic_cro
             "only {judged} batches while the service was down"
         );
         assert!(waiting >= 2, "vehicles did not wait at the stop lines");
+        // While it was down, `trafficmesh status` said why.
+        assert!(
+            degraded_seen.contains("intersection service does not answer"),
+            "trafficmesh status did not name the fail-safe: {degraded_seen}"
+        );
         assert_ne!(status(&bus, "intersection").await.pid, pid);
         batches
             .until(Duration::from_secs(30), "traffic crosses again", |b| {

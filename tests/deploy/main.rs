@@ -316,6 +316,39 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
         "no vehicles spawned across hosts:\n{}",
         logs()
     );
+    // `trafficmesh status` from host 3: healthy, every service on its host.
+    let status_log = dir.path().join("status.json");
+    let mut status = vec![bin.join("trafficmesh").display().to_string()];
+    status.extend(["status".into(), "--json".into()]);
+    hosts.spawn(3, "status", &status, &env, &status_log);
+    let asked = Instant::now();
+    let child = &mut hosts.children.last_mut().unwrap().1;
+    while child.try_wait().unwrap().is_none() {
+        assert!(
+            asked.elapsed() < Duration::from_secs(20),
+            "status never ended"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let text_status = std::fs::read_to_string(&status_log).unwrap();
+    let json_line = text_status
+        .lines()
+        .find(|l| l.starts_with('{'))
+        .unwrap_or_else(|| panic!("no JSON from trafficmesh status:\n{text_status}"));
+    let health: serde_json::Value = serde_json::from_str(json_line).unwrap();
+    assert_eq!(health["degraded"], false, "{health}");
+    for service in ["stepper", "spawner", "lights", "crosswalks", "admin"] {
+        let s = &health["services"][service];
+        assert_eq!(s["alive"], true, "{service}: {health}");
+        assert!(s["pid"].as_u64().is_some(), "{service}: {health}");
+        assert!(
+            !s["host"].as_str().unwrap_or("").is_empty(),
+            "{service}: {health}"
+        );
+    }
+    let lag = health["services"]["lights"]["lag_s"].as_f64().unwrap();
+    assert!(lag.abs() < 5.0, "the lights lag {lag} s behind the stepper");
+
     let up = last.rsplit("up: ").next().unwrap();
     for service in [
         "stepper",

@@ -43,6 +43,8 @@ enum Command {
     Ego(commands::ego::EgoArgs),
     /// The Zenoh router of a cluster spread over several hosts (see deploy/).
     Router(commands::router::RouterArgs),
+    /// The cluster's health from any host: services, hosts, lag, errors.
+    Status(commands::status::StatusArgs),
     /// Benchmarks that print their figures.
     #[cfg(feature = "bench")]
     #[command(subcommand)]
@@ -62,6 +64,7 @@ fn main() -> ExitCode {
         Command::Watch(args) => commands::watch::run(args),
         Command::Ego(args) => commands::ego::run(args),
         Command::Router(args) => commands::router::run(args),
+        Command::Status(args) => commands::status::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

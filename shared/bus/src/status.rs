@@ -39,6 +39,7 @@ pub fn serve_status(
     map: Option<u64>,
     details: Arc<dyn Fn() -> (f64, serde_json::Value) + Send + Sync>,
 ) {
+    let host = hostname();
     tokio::spawn(async move {
         let key = bus.keys().key_at(&topics::STATUS, bus.service());
         let (Ok(publisher), Ok(queryable)) = (
@@ -53,6 +54,7 @@ pub fn serve_status(
             let (bad_payloads, bad_payloads_by_key) = bus.bad_payloads().snapshot();
             ServiceStatus {
                 service: bus.service().to_string(),
+                host: host.clone(),
                 pid: std::process::id(),
                 time,
                 bad_payloads,
@@ -73,6 +75,51 @@ pub fn serve_status(
             }
         }
     });
+}
+
+/// This host's name, as the kernel has it ("?" if it cannot be read).
+fn hostname() -> String {
+    std::fs::read_to_string("/proc/sys/kernel/hostname")
+        .map(|h| h.trim().to_string())
+        .unwrap_or_else(|_| "?".into())
+}
+
+/// Why a cluster is degraded, one line each: a service of `expected` is not
+/// `alive`, or the stepper (its status `stepper`) drives on a fail-safe
+/// (stale light or crosswalk states, no answer from the intersection
+/// service). Empty when healthy. The admin's status and `trafficmesh
+/// status` say the same.
+pub fn degraded_reasons(
+    expected: &[String],
+    alive: &std::collections::BTreeSet<String>,
+    stepper: Option<&ServiceStatus>,
+) -> Vec<String> {
+    let mut reasons: Vec<String> = expected
+        .iter()
+        .filter(|s| !alive.contains(*s))
+        .map(|s| format!("{s} is not alive"))
+        .collect();
+    if let Some(stepper) = stepper {
+        for (flag, what) in [
+            (
+                "lights_stale",
+                "its light states are stale: every light counts as red",
+            ),
+            (
+                "crosswalks_stale",
+                "its crosswalk states are stale: every crosswalk counts as blocked",
+            ),
+            (
+                "intersections_unanswered",
+                "the intersection service does not answer: no way is granted",
+            ),
+        ] {
+            if stepper.details.get(flag).and_then(|f| f.as_bool()) == Some(true) {
+                reasons.push(format!("the stepper's fail-safe is in force: {what}"));
+            }
+        }
+    }
+    reasons
 }
 
 /// A map fingerprint as statuses carry it.

@@ -24,7 +24,8 @@ pub async fn health() -> Json<Health> {
 #[derive(Serialize, ToSchema)]
 pub struct ClusterStatus {
     pub cluster: String,
-    /// A required service is not alive, or the stepper runs on stale light or crosswalk states.
+    /// A required service is not alive, or the stepper drives on a fail-safe
+    /// (stale light or crosswalk states, no intersection service answering).
     pub degraded: bool,
     /// Why the cluster is degraded, one line each.
     pub reasons: Vec<String>,
@@ -43,6 +44,8 @@ pub struct ClusterStatus {
 pub struct ServiceView {
     /// Its liveliness token is present.
     pub alive: bool,
+    /// The host it runs on.
+    pub host: Option<String>,
     pub pid: Option<u32>,
     /// Seconds since its last status (published at 1 Hz).
     pub status_age_s: Option<f64>,
@@ -64,6 +67,7 @@ pub async fn status(State(app): AppState) -> Json<ClusterStatus> {
         let status = v.statuses.get(name);
         services.entry(name.clone()).or_insert_with(|| ServiceView {
             alive: v.alive.contains(name),
+            host: status.map(|(s, _)| s.host.clone()),
             pid: status.map(|(s, _)| s.pid),
             status_age_s: status.map(|(_, at)| at.elapsed().as_secs_f64()),
             bad_payloads: status.map_or(0, |(s, _)| s.bad_payloads),
@@ -73,21 +77,11 @@ pub async fn status(State(app): AppState) -> Json<ClusterStatus> {
             details: status.map_or(serde_json::Value::Null, |(s, _)| s.details.clone()),
         });
     }
-    let mut reasons: Vec<String> = app
-        .expected
-        .iter()
-        .filter(|s| !v.alive.contains(*s))
-        .map(|s| format!("{s} is not alive"))
-        .collect();
-    if let Some((stepper, _)) = v.statuses.get("stepper") {
-        for (flag, what) in [("lights_stale", "light"), ("crosswalks_stale", "crosswalk")] {
-            if stepper.details.get(flag).and_then(|f| f.as_bool()) == Some(true) {
-                reasons.push(format!(
-                    "the stepper's {what} states are stale (fail-safe in force)"
-                ));
-            }
-        }
-    }
+    let reasons = trafficmesh_bus::degraded_reasons(
+        &app.expected,
+        &v.alive,
+        v.statuses.get("stepper").map(|(s, _)| s),
+    );
     let clock = v.clock.as_ref();
     Json(ClusterStatus {
         cluster: app.bus.keys().cluster().to_string(),

@@ -23,6 +23,7 @@ pub mod import;
 mod memory;
 pub mod router;
 pub mod sim;
+pub mod status;
 pub mod up;
 pub mod watch;
 

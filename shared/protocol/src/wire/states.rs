@@ -103,6 +103,9 @@ impl EgoPose {
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ServiceStatus {
     pub service: String,
+    /// The host it runs on (its hostname).
+    #[serde(default)]
+    pub host: String,
     pub pid: u32,
     /// Simulation time the service last saw.
     pub time: f64,
