@@ -824,19 +824,7 @@ fn the_live_map_shows_moving_vehicles_in_headless_chromium() {
             .unwrap()
             >= 10
     });
-    let out = std::process::Command::new(python)
-        .arg(repo().join("tests/admin/live_map.py"))
-        .arg(browser)
-        .arg(format!("{}/", cluster.admin.as_ref().unwrap()))
-        .arg(cluster.dir.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(
-        out.status.success() && stdout.contains("OK"),
-        "live map check failed:\n{stdout}\n{stderr}"
-    );
+    live_map_check(&python, &browser, &cluster, &[]);
 }
 
 #[test]
@@ -849,12 +837,18 @@ fn the_live_map_draws_the_reserved_ways_and_the_queues_in_headless_chromium() {
     };
     let (_map_dir, map, _, _) = reservation_four_way();
     let cluster = Cluster::start_on_with_admin("adminreserved", &map, "max_vehicles = 30", false);
+    live_map_check(&python, &browser, &cluster, &["reservations"]);
+}
+
+/// Runs tests/admin/live_map.py (with `extra` arguments) in `browser` on
+/// the cluster's live map; it must print OK.
+fn live_map_check(python: &str, browser: &str, cluster: &Cluster, extra: &[&str]) {
     let out = std::process::Command::new(python)
         .arg(repo().join("tests/admin/live_map.py"))
         .arg(browser)
         .arg(format!("{}/", cluster.admin.as_ref().unwrap()))
         .arg(cluster.dir.path())
-        .arg("reservations")
+        .args(extra)
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);

@@ -199,6 +199,32 @@ fn exec_start(service: &str, env: &Env, bin: &Path) -> Vec<String> {
         .collect()
 }
 
+/// Host 1: the router and the stepper; host 2: every other service; host
+/// 3 has a user's `trafficmesh watch` and `trafficmesh status`.
+const PLACEMENT: [(usize, &[&str]); 2] = [
+    (1, &["router", "stepper"]),
+    (
+        2,
+        &[
+            "spawner",
+            "lights",
+            "crosswalks",
+            "pedestrians",
+            "intersection",
+            "admin",
+        ],
+    ),
+];
+
+/// Waits for `child` to exit by itself.
+fn wait_exit(child: &mut Child, timeout: Duration, what: &str, logs: &dyn Fn() -> String) {
+    let deadline = Instant::now() + timeout;
+    while child.try_wait().unwrap().is_none() {
+        assert!(Instant::now() < deadline, "{what} never ended:\n{}", logs());
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 #[test]
 fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_third() {
     if !netns_available() {
@@ -242,23 +268,7 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     env.insert("PATH".into(), std::env::var("PATH").unwrap_or_default());
 
     let mut hosts = Hosts::new(3);
-    // Host 1: the router and the stepper; host 2: every other service;
-    // host 3: a user's `trafficmesh watch`.
-    let placement: [(usize, &[&str]); 2] = [
-        (1, &["router", "stepper"]),
-        (
-            2,
-            &[
-                "spawner",
-                "lights",
-                "crosswalks",
-                "pedestrians",
-                "intersection",
-                "admin",
-            ],
-        ),
-    ];
-    for (host, services) in placement {
+    for (host, services) in PLACEMENT {
         for service in services {
             let command = exec_start(service, &env, &bin);
             let log = dir.path().join(format!("{service}.log"));
@@ -286,17 +296,8 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
             .join("\n")
     };
     // The watcher's lines, until it has printed its twelve.
-    let deadline = Instant::now() + Duration::from_secs(60);
-    let watcher = hosts
-        .children
-        .iter_mut()
-        .find(|(what, _)| what == "watch")
-        .map(|(_, c)| c)
-        .unwrap();
-    while watcher.try_wait().unwrap().is_none() {
-        assert!(Instant::now() < deadline, "watch never ended:\n{}", logs());
-        std::thread::sleep(Duration::from_millis(200));
-    }
+    let watcher = &mut hosts.children.last_mut().unwrap().1;
+    wait_exit(watcher, Duration::from_secs(60), "watch", &logs);
     let text = std::fs::read_to_string(&watch_log).unwrap();
     let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("t=")).collect();
     assert!(lines.len() >= 3, "no clock reached host 3:\n{}", logs());
@@ -317,50 +318,54 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
         logs()
     );
     // `trafficmesh status` from host 3: healthy, every service on its host.
-    let status_log = dir.path().join("status.json");
-    let mut status = vec![bin.join("trafficmesh").display().to_string()];
-    status.extend(["status".into(), "--json".into()]);
-    hosts.spawn(3, "status", &status, &env, &status_log);
+    let status = |hosts: &mut Hosts, timeout: &str| {
+        let log = dir.path().join("status.json");
+        let mut command = vec![bin.join("trafficmesh").display().to_string()];
+        command.extend(["status".into(), "--json".into(), "--timeout".into()]);
+        command.push(timeout.into());
+        hosts.spawn(3, "status", &command, &env, &log);
+        let child = &mut hosts.children.last_mut().unwrap().1;
+        wait_exit(child, Duration::from_secs(20), "status", &|| String::new());
+        let text = std::fs::read_to_string(&log).unwrap();
+        let json = text
+            .lines()
+            .find(|l| l.starts_with('{'))
+            .unwrap_or_else(|| panic!("no JSON from trafficmesh status:\n{text}"));
+        serde_json::from_str::<serde_json::Value>(json).unwrap()
+    };
+    // Until every service has answered from its host (the services come
+    // up one by one), as a user would ask again.
+    let on_their_hosts = |h: &serde_json::Value| {
+        h["degraded"] == false
+            && ["stepper", "spawner", "lights", "crosswalks", "admin"]
+                .iter()
+                .all(|s| {
+                    let s = &h["services"][s];
+                    s["alive"] == true
+                        && s["pid"].as_u64().is_some()
+                        && !s["host"].as_str().unwrap_or("").is_empty()
+                })
+    };
     let asked = Instant::now();
-    let child = &mut hosts.children.last_mut().unwrap().1;
-    while child.try_wait().unwrap().is_none() {
+    let health = loop {
+        let health = status(&mut hosts, "1");
+        if on_their_hosts(&health) {
+            break health;
+        }
         assert!(
             asked.elapsed() < Duration::from_secs(20),
-            "status never ended"
+            "the cluster never looked healthy from host 3: {health}\n{}",
+            logs()
         );
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let text_status = std::fs::read_to_string(&status_log).unwrap();
-    let json_line = text_status
-        .lines()
-        .find(|l| l.starts_with('{'))
-        .unwrap_or_else(|| panic!("no JSON from trafficmesh status:\n{text_status}"));
-    let health: serde_json::Value = serde_json::from_str(json_line).unwrap();
-    assert_eq!(health["degraded"], false, "{health}");
-    for service in ["stepper", "spawner", "lights", "crosswalks", "admin"] {
-        let s = &health["services"][service];
-        assert_eq!(s["alive"], true, "{service}: {health}");
-        assert!(s["pid"].as_u64().is_some(), "{service}: {health}");
-        assert!(
-            !s["host"].as_str().unwrap_or("").is_empty(),
-            "{service}: {health}"
-        );
-    }
+    };
     let lag = health["services"]["lights"]["lag_s"].as_f64().unwrap();
     assert!(lag.abs() < 5.0, "the lights lag {lag} s behind the stepper");
 
     let up = last.rsplit("up: ").next().unwrap();
-    for service in [
-        "stepper",
-        "spawner",
-        "lights",
-        "crosswalks",
-        "pedestrians",
-        "intersection",
-        "admin",
-    ] {
+    let services = PLACEMENT.iter().flat_map(|(_, s)| s.iter());
+    for service in services.filter(|&&s| s != "router") {
         assert!(
-            up.split(',').any(|s| s == service),
+            up.split(',').any(|s| s == *service),
             "{service} not alive as seen from host 3: {last}\n{}",
             logs()
         );

@@ -264,20 +264,26 @@ function draw() {
   worldTransform(ctx);
   for (const s of sessions) {
     for (const o of s.objects) {
-      const c = Math.cos(o.yaw), sn = Math.sin(o.yaw), hl = o.length / 2, hw = o.width / 2;
       ctx.fillStyle = DRIVER_COLORS[o.driver] || "#ffffff";
-      ctx.beginPath();
-      ctx.moveTo(o.x + c * hl - sn * hw, o.y + sn * hl + c * hw);
-      ctx.lineTo(o.x + c * hl + sn * hw, o.y + sn * hl - c * hw);
-      ctx.lineTo(o.x - c * hl + sn * hw, o.y - sn * hl - c * hw);
-      ctx.lineTo(o.x - c * hl - sn * hw, o.y - sn * hl + c * hw);
-      ctx.closePath();
+      centredBox(o);
       ctx.fill();
       actors++;
     }
   }
   live.drawnActors = actors;
   live.frames++;
+}
+
+// A path around a box given by its centre, heading and size (the traffic
+// service's actors, reserved rectangles).
+function centredBox(b) {
+  const c = Math.cos(b.yaw), sn = Math.sin(b.yaw), hl = b.length / 2, hw = b.width / 2;
+  ctx.beginPath();
+  ctx.moveTo(b.x + c * hl - sn * hw, b.y + sn * hl + c * hw);
+  ctx.lineTo(b.x + c * hl + sn * hw, b.y + sn * hl - c * hw);
+  ctx.lineTo(b.x - c * hl + sn * hw, b.y - sn * hl - c * hw);
+  ctx.lineTo(b.x - c * hl - sn * hw, b.y - sn * hl + c * hw);
+  ctx.closePath();
 }
 
 // Each vehicle's granted way: its rectangles ahead in time, fading out with
@@ -289,15 +295,9 @@ function drawReservations() {
   worldTransform(ctx);
   const px = 1 / view.scale;
   for (const r of intersections.reserved) {
-    const c = Math.cos(r.yaw), sn = Math.sin(r.yaw), hl = r.length / 2, hw = r.width / 2;
     const fade = Math.max(0.08, 0.55 * (1 - r.ahead_s / RESERVED_AHEAD));
     const hue = (r.vehicle * 137) % 360;
-    ctx.beginPath();
-    ctx.moveTo(r.x + c * hl - sn * hw, r.y + sn * hl + c * hw);
-    ctx.lineTo(r.x + c * hl + sn * hw, r.y + sn * hl - c * hw);
-    ctx.lineTo(r.x - c * hl + sn * hw, r.y - sn * hl - c * hw);
-    ctx.lineTo(r.x - c * hl - sn * hw, r.y - sn * hl + c * hw);
-    ctx.closePath();
+    centredBox(r);
     ctx.fillStyle = `hsla(${hue}, 80%, 60%, ${fade * 0.5})`;
     ctx.fill();
     ctx.strokeStyle = `hsla(${hue}, 80%, 65%, ${fade})`;

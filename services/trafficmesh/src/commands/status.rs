@@ -102,7 +102,7 @@ pub fn run(a: StatusArgs) -> Result<()> {
 }
 
 /// The services whose liveliness tokens are present.
-async fn live_services(bus: &Bus, keys: &Keys) -> BTreeSet<String> {
+pub async fn live_services(bus: &Bus, keys: &Keys) -> BTreeSet<String> {
     let mut names = BTreeSet::new();
     if let Ok(replies) = bus
         .session()

@@ -8,7 +8,6 @@ use anyhow::Result;
 use clap::Args;
 use trafficmesh_bus::{Bus, BusArgs, Role};
 use trafficmesh_model::LightColor;
-use trafficmesh_protocol::Keys;
 use trafficmesh_protocol::wire::{Clock, CrosswalkOccupancy, LightState};
 
 #[derive(Args)]
@@ -48,7 +47,8 @@ pub fn run(a: WatchArgs) -> Result<()> {
                     Ok(s) = lights.recv_async() => if let Some(l) = bus.decode::<LightState>(&s) { light_colors.insert(l.group, l.color); },
                     Ok(s) = crossings.recv_async() => if let Some(o) = bus.decode::<CrosswalkOccupancy>(&s) { occupied.insert(o.area, o.occupied); },
                     _ = every.tick() => {
-                        let alive = services(&bus, &keys).await;
+                        let alive: Vec<String> =
+                            super::status::live_services(&bus, &keys).await.into_iter().collect();
                         println!("{}", line(last.as_ref(), &light_colors, &occupied, &alive));
                         printed += 1;
                         if a.count.is_some_and(|c| printed >= c) {
@@ -74,25 +74,6 @@ async fn current<T: serde::de::DeserializeOwned>(bus: &Bus, key: &str) -> Result
         }
         tokio::time::sleep(Duration::from_millis(100)).await;
     }
-}
-
-async fn services(bus: &Bus, keys: &Keys) -> Vec<String> {
-    let mut names = Vec::new();
-    if let Ok(replies) = bus
-        .session()
-        .liveliness()
-        .get(keys.key_all(&topics::ALIVE))
-        .timeout(Duration::from_millis(300))
-        .await
-    {
-        while let Ok(r) = replies.recv_async().await {
-            if let Ok(s) = r.result() {
-                names.push(Keys::last_chunk(s.key_expr().as_str()).to_string());
-            }
-        }
-    }
-    names.sort();
-    names
 }
 
 fn line(
