@@ -1,7 +1,7 @@
 //! deploy/ on three hosts: network namespaces joined by a bridge (addresses
 //! only inside them), each service started from its systemd unit's
 //! ExecStart with deploy/cluster.env and the Zenoh configs of deploy/zenoh,
-//! the router found by name as on real hosts. Needs root and iproute2: a
+//! the router found by name as on real hosts; then one host's link cut. Needs root and iproute2: a
 //! notice and a skip without them, unless TRAFFICMESH_REQUIRE_NETNS=1 (CI).
 
 use std::collections::BTreeMap;
@@ -360,6 +360,46 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     };
     let lag = health["services"]["lights"]["lag_s"].as_f64().unwrap();
     assert!(lag.abs() < 5.0, "the lights lag {lag} s behind the stepper");
+
+    // Host 2's link cut for 3 s. Host 3 keeps seeing the stepper, whose
+    // fail-safe is in force (lights no longer vouched for count as red,
+    // crosswalks as blocked); within 5 s of the link's return the stepper
+    // says all is well again.
+    let link = format!("{}e2", hosts.prefix);
+    let host2 = hosts.name(2);
+    let answered = |h: &serde_json::Value| h["services"]["stepper"]["pid"].is_u64();
+    ip(&["-n", &host2, "link", "set", &link, "down"]);
+    let cut = Instant::now();
+    let mut fail_safe_seen = false;
+    while cut.elapsed() < Duration::from_secs(3) {
+        let during = status(&mut hosts, "1");
+        fail_safe_seen |= answered(&during)
+            && during["reasons"]
+                .to_string()
+                .contains("light states are stale");
+    }
+    ip(&["-n", &host2, "link", "set", &link, "up"]);
+    let back = Instant::now();
+    assert!(
+        fail_safe_seen,
+        "host 3 never saw the stepper's fail-safe during the cut:\n{}",
+        logs()
+    );
+    loop {
+        let health = status(&mut hosts, "1");
+        if answered(&health) && health["degraded"] == false {
+            break;
+        }
+        assert!(
+            back.elapsed() < Duration::from_secs(5),
+            "not healthy 5 s after the link came back: {health}\n{}",
+            logs()
+        );
+    }
+    eprintln!(
+        "healthy again {:.1} s after the link came back",
+        back.elapsed().as_secs_f64()
+    );
 
     let up = last.rsplit("up: ").next().unwrap();
     let services = PLACEMENT.iter().flat_map(|(_, s)| s.iter());
