@@ -278,7 +278,15 @@ impl Bus {
         payload: Option<&Q>,
         timeout: Duration,
     ) -> Result<Vec<Result<Vec<u8>, BusError>>, BusError> {
-        let mut get = self.session.get(key.to_string()).timeout(timeout);
+        // Every queryable, each reply as it comes: with Zenoh's defaults a
+        // wildcard query's replies wait for the slowest one, and those
+        // still held when the timeout strikes are lost.
+        let mut get = self
+            .session
+            .get(key.to_string())
+            .target(zenoh::query::QueryTarget::All)
+            .consolidation(zenoh::query::ConsolidationMode::None)
+            .timeout(timeout);
         if let Some(p) = payload {
             get = get
                 .payload(serde_json::to_vec(p).expect("wire types serialise"))
