@@ -40,7 +40,7 @@ struct Args {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "stepper,spawner,lights,crosswalks"
+        default_value = trafficmesh_bus::REQUIRED_SERVICES
     )]
     expect: Vec<String>,
 }

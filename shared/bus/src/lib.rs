@@ -17,7 +17,9 @@ pub use heartbeat::Vouch;
 pub use lockstep::ROUND_TIMEOUT;
 pub use ports::free_loopback_port;
 pub use session::{BusArgs, DEFAULT_ENDPOINT, Role};
-pub use status::{BadPayloads, another_map, check_map, degraded_reasons, serve_status};
+pub use status::{
+    BadPayloads, REQUIRED_SERVICES, another_map, check_map, degraded_reasons, serve_status,
+};
 pub use typed::{Served, Subscription};
 
 use thiserror::Error;

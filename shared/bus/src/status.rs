@@ -84,6 +84,10 @@ fn hostname() -> String {
         .unwrap_or_else(|_| "?".into())
 }
 
+/// The services without which a cluster is degraded, unless told otherwise
+/// (`--expect` of the admin and of `trafficmesh status`).
+pub const REQUIRED_SERVICES: &str = "stepper,spawner,lights,crosswalks";
+
 /// Why a cluster is degraded, one line each: a service of `expected` is not
 /// `alive`, or the stepper (its status `stepper`) drives on a fail-safe
 /// (stale light or crosswalk states, no answer from the intersection

@@ -22,7 +22,7 @@ pub struct StatusArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "stepper,spawner,lights,crosswalks"
+        default_value = trafficmesh_bus::REQUIRED_SERVICES
     )]
     expect: Vec<String>,
     /// Print one JSON object: `{cluster, degraded, reasons, time, services:

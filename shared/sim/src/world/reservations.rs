@@ -30,6 +30,10 @@ impl World {
         let Some(answer) = self.intersections.round(&round) else {
             return;
         };
+        // Most ticks change no grant: no index of every vehicle then.
+        if answer.granted.is_empty() && answer.revoked.is_empty() {
+            return;
+        }
         let at: FxHashMap<VehicleId, usize> = self
             .vehicles
             .iter()
