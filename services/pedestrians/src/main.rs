@@ -8,10 +8,12 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
+use trafficmesh_model::LightProgram;
 use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LockstepTick};
 use trafficmesh_protocol::{Keys, topics};
 use trafficmesh_service::settings::PedestriansSettings;
 use trafficmesh_service::{Service, ServiceArgs};
+use trafficmesh_sim::lights::program_state;
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
 #[derive(Parser)]
@@ -31,10 +33,23 @@ struct Args {
     settings: PedestriansSettings,
 }
 
-/// The walkers and the last time they were published.
+/// The walkers, the signal programs their walk signals follow, and the last
+/// time they were published.
 struct Walkers {
     people: Pedestrians,
+    programs: Vec<LightProgram>,
     last: Option<f64>,
+}
+
+impl Walkers {
+    /// Walks on to `time`, each walk signal read from the programs (the
+    /// lights service's own, so walkers agree with it in lockstep too).
+    fn step(&mut self, time: f64, dt: f64) {
+        let programs = &self.programs;
+        self.people.step(time, dt, |g| {
+            program_state(&programs[g as usize], time).color
+        });
+    }
 }
 
 struct PedestriansService {
@@ -69,6 +84,7 @@ fn main() -> ExitCode {
         let service = PedestriansService {
             walkers: Mutex::new(Walkers {
                 people: Pedestrians::new(&net.crosswalks, config, args.seed),
+                programs: net.light_groups.iter().map(|g| g.program).collect(),
                 last: None,
             }),
         };
@@ -106,7 +122,7 @@ impl Service for PedestriansService {
             if !(c.time.is_finite() && c.time - prev >= 0.1) {
                 return Ok(());
             }
-            w.people.step(c.time, c.time - prev);
+            w.step(c.time, c.time - prev);
             w.last = Some(c.time);
             batch(&w.people, c.time)
         };
@@ -119,7 +135,7 @@ impl Service for PedestriansService {
     async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> AgentBatch {
         let (agents, due) = {
             let mut w = self.walkers();
-            w.people.step(tick.time, tick.dt);
+            w.step(tick.time, tick.dt);
             let due = w.last.is_none_or(|t| tick.time - t >= 0.1);
             if due {
                 w.last = Some(tick.time);

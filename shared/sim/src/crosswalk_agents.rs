@@ -166,6 +166,7 @@ mod tests {
 
     fn area(name: &str, x: f64) -> Crosswalk {
         Crosswalk {
+            walk_groups: Vec::new(),
             name: name.into(),
             polygon: vec![
                 DVec2::new(x - 2.0, -8.0),

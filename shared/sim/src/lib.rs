@@ -43,6 +43,7 @@ pub mod spawn;
 mod trajectory;
 mod vehicle;
 mod visualization;
+pub mod walk_signal;
 pub mod world;
 
 pub use cognition::right_of_way::IMPATIENCE_TIME;

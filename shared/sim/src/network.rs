@@ -126,6 +126,9 @@ pub struct Crosswalk {
     pub debug_logs: bool,
     /// Whitelist of the parent ZebraCrossingConfig (empty lists allow all).
     pub whitelist: ZebraConfigDef,
+    /// The light groups whose red is the walkers' walk signal (empty:
+    /// unsignalised; see [`crate::walk_signal`]).
+    pub walk_groups: Vec<u32>,
 }
 
 /// A traffic simulator of the scene with lane ids and vehicle kinds resolved.
@@ -387,6 +390,7 @@ impl LaneNetwork {
                     .unwrap_or_default();
                 Crosswalk {
                     name: c.name.clone(),
+                    walk_groups: crate::walk_signal::walk_groups(&lanes, &polygon),
                     polygon,
                     stops,
                     max_detection_distance: c.max_detection_distance,

@@ -1,14 +1,19 @@
 //! Built-in pedestrians and cyclists: they cross the map's crosswalks at a
 //! configurable rate so that a cluster shows the zebra behaviour on its own.
-//! Deterministic for a seed; poses go out as agent footprints.
+//! At a signalised crosswalk they wait at the kerb for their walk signal
+//! ([`crate::walk_signal`]). Deterministic for a seed; poses go out as agent
+//! footprints.
 
 use glam::DVec2;
+
+use trafficmesh_model::LightColor;
 
 use crate::crosswalk::OccupantType;
 use crate::crosswalk_agents::AgentPose;
 use crate::geometry::box_corners;
 use crate::network::Crosswalk;
 use crate::rng::SimRng;
+use crate::walk_signal;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PedestrianConfig {
@@ -45,6 +50,10 @@ pub struct Pedestrians {
     config: PedestrianConfig,
     /// Each crosswalk's crossing line, from one kerb to the other.
     lines: Vec<(DVec2, DVec2)>,
+    /// Each crosswalk's walk signal: the light groups that must show red.
+    walk_groups: Vec<Vec<u32>>,
+    /// When the next walker comes to each crosswalk (one who came during
+    /// its red waits for the walk).
     next_start: Vec<f64>,
     walkers: Vec<Walker>,
     next_id: u64,
@@ -55,6 +64,7 @@ impl Pedestrians {
     pub fn new(areas: &[Crosswalk], config: PedestrianConfig, seed: u64) -> Self {
         let mut rng = SimRng::new(seed, 0x7065_6465);
         let lines = areas.iter().map(|a| crossing_line(&a.polygon)).collect();
+        let walk_groups = areas.iter().map(|a| a.walk_groups.clone()).collect();
         let next_start = areas
             .iter()
             .map(|_| next_gap(&mut rng, config.per_minute))
@@ -62,6 +72,7 @@ impl Pedestrians {
         Pedestrians {
             config,
             lines,
+            walk_groups,
             next_start,
             walkers: Vec::new(),
             next_id: 0,
@@ -69,10 +80,15 @@ impl Pedestrians {
         }
     }
 
-    /// Advances to time `t` by `dt`: starts due crossings, moves everyone,
-    /// removes those who arrived.
-    pub fn step(&mut self, t: f64, dt: f64) {
+    /// Advances to time `t` by `dt`: starts the due crossings whose walk
+    /// signal shows (`color` gives each light group's colour now), moves
+    /// everyone, removes those who arrived.
+    pub fn step(&mut self, t: f64, dt: f64, color: impl Fn(u32) -> LightColor) {
         for area in 0..self.lines.len() {
+            if self.next_start[area] > t || !walk_signal::may_walk(&self.walk_groups[area], &color)
+            {
+                continue;
+            }
             while self.next_start[area] <= t {
                 let cyclist = self.rng.unit() < self.config.cyclist_share;
                 let (a, b) = self.lines[area];

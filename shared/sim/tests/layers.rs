@@ -13,7 +13,14 @@ const LAYERS: &[(&str, &[&str])] = &[
     ),
     (
         "network",
-        &["network", "siblings", "conflicts", "lights", "crosswalk"],
+        &[
+            "network",
+            "siblings",
+            "conflicts",
+            "lights",
+            "crosswalk",
+            "walk_signal",
+        ],
     ),
     (
         "agents",

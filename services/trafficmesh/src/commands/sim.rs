@@ -304,6 +304,7 @@ pub fn run(a: SimArgs) -> Result<()> {
             &world.spawn_config(),
         )?;
     }
+    world.log_stuck_vehicles();
     let waits = world.wait_stats();
     let summary = Summary {
         map: a

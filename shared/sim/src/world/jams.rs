@@ -230,6 +230,42 @@ impl World {
         self.vehicles.iter().filter(|v| is_stuck(v)).count()
     }
 
+    /// Logs each stuck vehicle (debug level): where it stands and what its
+    /// rules say holds it, to find what a queue waits for.
+    pub fn log_stuck_vehicles(&self) {
+        if !tracing::enabled!(tracing::Level::DEBUG) {
+            return;
+        }
+        let holders: Vec<_> = self
+            .vehicles
+            .iter()
+            .filter(|v| is_stuck(v))
+            .filter_map(|v| v.dominating)
+            .collect();
+        let shown = |v: &Vehicle| is_stuck(v) || holders.contains(&v.id);
+        for v in self.vehicles.iter().filter(|v| shown(v)) {
+            tracing::debug!(
+                "stuck at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) waited {:.0} s, {:?} {:?} for {:?}, front {:.1} m at {:.1} m/s, light {:?} {:.1} m, zebra {:?}, next {:?}",
+                self.time,
+                v.id,
+                self.net.lane(v.path[0]).name,
+                v.s,
+                v.pose.x,
+                v.pose.y,
+                v.trip.wait,
+                v.speed_mode,
+                v.yield_phase,
+                v.dominating,
+                v.distance_to_front,
+                v.front_speed,
+                v.passability,
+                v.distance_to_light,
+                v.zebra,
+                v.path.get(1).map(|&l| &self.net.lane(l).name),
+            );
+        }
+    }
+
     /// No vehicle on the road and none left to come (a timetable run to its end).
     pub fn demand_done(&self) -> bool {
         self.vehicles.is_empty() && !self.spawner.any_enabled()

@@ -36,7 +36,10 @@ impl World {
         let Some(w) = &mut self.walkers else {
             return;
         };
-        w.people.step(self.time, self.config.dt);
+        let lights = &self.lights;
+        w.people.step(self.time, self.config.dt, |g| {
+            lights.state(g as usize).color
+        });
         let agents = w.people.agents();
         w.occupancy
             .update_source(&self.net.crosswalks, &mut self.occupancy, SOURCE, &agents);
