@@ -258,6 +258,9 @@ pub fn run(a: SimArgs) -> Result<()> {
     let started = Instant::now();
     pool.install(|| {
         for tick in 0..ticks {
+            if tick + 1 == ticks {
+                world.log_stuck_vehicles_next_tick();
+            }
             world.step();
             if let Some(check) = &mut check {
                 check.observe(&world);
@@ -304,7 +307,6 @@ pub fn run(a: SimArgs) -> Result<()> {
             &world.spawn_config(),
         )?;
     }
-    world.log_stuck_vehicles();
     let waits = world.wait_stats();
     let summary = Summary {
         map: a

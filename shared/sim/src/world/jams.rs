@@ -230,22 +230,46 @@ impl World {
         self.vehicles.iter().filter(|v| is_stuck(v)).count()
     }
 
-    /// Logs each stuck vehicle (debug level): where it stands and what its
-    /// rules say holds it, to find what a queue waits for.
-    pub fn log_stuck_vehicles(&self) {
-        if !tracing::enabled!(tracing::Level::DEBUG) {
-            return;
-        }
-        let holders: Vec<_> = self
+    /// Has the next tick log its stuck vehicles (debug level): where each
+    /// stands, what its rules say and whom it waits for, to find what a
+    /// queue waits for.
+    pub fn log_stuck_vehicles_next_tick(&mut self) {
+        self.log_stuck = tracing::enabled!(tracing::Level::DEBUG);
+    }
+
+    /// Logs the stuck vehicles with this tick's `waits` (see
+    /// [`World::log_stuck_vehicles_next_tick`]).
+    pub(super) fn log_stuck_vehicles(&self, waits: &[Wait]) {
+        let waited_for = |i: usize| match waits.get(i) {
+            Some(&(k, rule)) if (k as usize) < self.vehicles.len() => format!(
+                "#{} ({})",
+                self.vehicles[k as usize].id,
+                if rule { "rule" } else { "body" }
+            ),
+            _ => "nobody".into(),
+        };
+        // Each stuck vehicle's chain of waits, to its root.
+        let mut holders = Vec::new();
+        for (i, v) in self
             .vehicles
             .iter()
-            .filter(|v| is_stuck(v))
-            .filter_map(|v| v.dominating)
-            .collect();
+            .enumerate()
+            .filter(|(_, v)| is_stuck(v))
+        {
+            holders.extend(v.dominating);
+            let mut k = i;
+            while let Some(&(next, _)) = waits.get(k)
+                && (next as usize) < self.vehicles.len()
+                && !holders.contains(&self.vehicles[next as usize].id)
+            {
+                k = next as usize;
+                holders.push(self.vehicles[k].id);
+            }
+        }
         let shown = |v: &Vehicle| is_stuck(v) || holders.contains(&v.id);
-        for v in self.vehicles.iter().filter(|v| shown(v)) {
+        for (i, v) in self.vehicles.iter().enumerate().filter(|(_, v)| shown(v)) {
             tracing::debug!(
-                "stuck at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) waited {:.0} s, {:?} {:?} for {:?}, front {:.1} m at {:.1} m/s, light {:?} {:.1} m, zebra {:?}, next {:?}",
+                "stuck at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) waited {:.0} s, {:?} {:?} for {:?}, front {:.1} m at {:.1} m/s, light {:?} {:.1} m, zebra {:?}, next {:?}, waits for {}",
                 self.time,
                 v.id,
                 self.net.lane(v.path[0]).name,
@@ -262,6 +286,7 @@ impl World {
                 v.distance_to_light,
                 v.zebra,
                 v.path.get(1).map(|&l| &self.net.lane(l).name),
+                waited_for(i),
             );
         }
     }

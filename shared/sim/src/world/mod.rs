@@ -122,6 +122,8 @@ pub struct World {
     /// Cognition's output and the deadlock waits (kept for the allocations).
     perceptions: Vec<Perception>,
     waits: Vec<Wait>,
+    /// Log the stuck vehicles next tick (a debug aid).
+    log_stuck: bool,
     index: LaneIndex,
     /// Every body by place, for the clearance check (kept for the allocations).
     bodies: BodyGrid,
@@ -181,6 +183,7 @@ impl World {
             junctions: JunctionBuckets::default(),
             perceptions: Vec::new(),
             waits: Vec::new(),
+            log_stuck: false,
             index,
             bodies: BodyGrid::default(),
             lights,

@@ -106,6 +106,9 @@ impl World {
         self.phase_times.lap(Phase::Cognition);
         deadlock::break_cycles(&self.net, &self.vehicles, &waits, &mut perceptions);
         self.note_gridlocks(&waits);
+        if std::mem::take(&mut self.log_stuck) {
+            self.log_stuck_vehicles(&waits);
+        }
         self.phase_times.lap(Phase::Deadlock);
         self.zebra_events(&perceptions);
         self.phase_times.lap(Phase::Zebra);
