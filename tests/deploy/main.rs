@@ -4,6 +4,8 @@
 //! the router found by name as on real hosts; then one host's link cut. Needs root and iproute2: a
 //! notice and a skip without them, unless TRAFFICMESH_REQUIRE_NETNS=1 (CI).
 
+mod secure;
+
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command};
@@ -239,6 +241,7 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     for key in [
         "TRAFFICMESH_CLUSTER",
         "TRAFFICMESH_ZENOH_CONFIG",
+        "TRAFFICMESH_ROUTER_CONFIG",
         "TRAFFICMESH_MAP",
         "TRAFFICMESH_SEED",
         "TRAFFICMESH_STATE",
@@ -256,6 +259,10 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     env.insert(
         "TRAFFICMESH_ZENOH_CONFIG".into(),
         deploy().join("zenoh/service.json5").display().to_string(),
+    );
+    env.insert(
+        "TRAFFICMESH_ROUTER_CONFIG".into(),
+        deploy().join("zenoh/router.json5").display().to_string(),
     );
     env.insert(
         "TRAFFICMESH_MAP".into(),

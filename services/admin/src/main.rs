@@ -6,6 +6,7 @@ mod live;
 mod mapinfo;
 mod metrics;
 mod problem;
+mod tls;
 mod token;
 mod view;
 
@@ -68,6 +69,11 @@ fn run(args: Args) -> Result<()> {
         .clone()
         .unwrap_or_else(default_token_file);
     let (token, source) = token::resolve(settings.token.clone(), &token_file)?;
+    // A certificate that cannot serve is a configuration error, found at once.
+    let tls = match (&settings.tls_cert, &settings.tls_key) {
+        (Some(cert), Some(key)) => Some(tls::acceptor(cert, key)?),
+        _ => None,
+    };
     if source == token::Source::Generated {
         // The one time the token is shown; it is never logged.
         println!(
@@ -113,12 +119,24 @@ fn run(args: Args) -> Result<()> {
         let listener = tokio::net::TcpListener::bind(settings.listen)
             .await
             .with_context(|| format!("cannot listen on {}", settings.listen))?;
+        let local = listener.local_addr()?;
+        let scheme = if tls.is_some() { "https" } else { "http" };
         tracing::info!(
-            "admin on http://{}: live map at /, API docs at /swagger-ui, metrics at /metrics",
-            listener.local_addr()?
+            "admin on {scheme}://{local}: live map at /, API docs at /swagger-ui, metrics at /metrics",
         );
+        let serving = async move {
+            match tls {
+                Some(acceptor) => {
+                    let listener = tls::TlsListener::new(listener, acceptor)?;
+                    axum::serve(listener, router)
+                        .with_graceful_shutdown(signal)
+                        .await
+                }
+                None => axum::serve(listener, router).with_graceful_shutdown(signal).await,
+            }
+        };
         tokio::select! {
-            r = axum::serve(listener, router).with_graceful_shutdown(signal) => r?,
+            r = serving => r?,
             e = trafficmesh_bus::another_map(&refuse, map) => return Err(e.into()),
         }
         Ok(())

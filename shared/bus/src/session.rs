@@ -52,10 +52,7 @@ impl BusArgs {
     /// The Zenoh config: the file if given, else the embedded default; then the flags.
     pub fn zenoh_config(&self, role: Role) -> Result<Config, BusError> {
         let mut config = match &self.zenoh_config {
-            Some(path) => Config::from_file(path).map_err(|e| BusError::Config {
-                what: path.display().to_string(),
-                reason: e.to_string(),
-            })?,
+            Some(path) => config_file(path)?,
             None => embedded_default(role)?,
         };
         if let Some(mode) = &self.mode {
@@ -88,6 +85,45 @@ impl BusArgs {
         }
         Ok(config)
     }
+}
+
+/// Reads a Zenoh config file with its `${VAR}`s replaced by the
+/// environment's values: one file serves every service of a deployment,
+/// each naming its own certificate, password or cluster
+/// (`${TRAFFICMESH_IDENTITY}`). A variable that is not set is an error that
+/// names it.
+fn config_file(path: &std::path::Path) -> Result<Config, BusError> {
+    let error = |reason: String| BusError::Config {
+        what: path.display().to_string(),
+        reason,
+    };
+    let text = std::fs::read_to_string(path).map_err(|e| error(e.to_string()))?;
+    let text = expand_env(&text, |name| std::env::var(name).ok()).map_err(error)?;
+    Config::from_json5(&text).map_err(|e| error(e.to_string()))
+}
+
+/// `text` with each `${NAME}` replaced by `lookup(NAME)`.
+fn expand_env(text: &str, lookup: impl Fn(&str) -> Option<String>) -> Result<String, String> {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(start) = rest.find("${") {
+        out.push_str(&rest[..start]);
+        let after = &rest[start + 2..];
+        let end = after.find('}').ok_or_else(|| {
+            format!(
+                "'${{' without a closing '}}': {}",
+                &rest[start..].lines().next().unwrap_or("")
+            )
+        })?;
+        let name = &after[..end];
+        let value = lookup(name).ok_or_else(|| {
+            format!("it uses ${{{name}}}, and the environment variable {name} is not set")
+        })?;
+        out.push_str(&value);
+        rest = &after[end + 1..];
+    }
+    out.push_str(rest);
+    Ok(out)
 }
 
 fn embedded_default(role: Role) -> Result<Config, BusError> {
@@ -131,4 +167,22 @@ fn insert(config: &mut Config, key: &str, json: &str) -> Result<(), BusError> {
             what: key.to_string(),
             reason: e.to_string(),
         })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::expand_env;
+
+    #[test]
+    fn environment_variables_in_a_config_are_expanded_and_a_missing_one_is_named() {
+        let env = |name: &str| (name == "ID").then(|| "stepper".to_string());
+        assert_eq!(
+            expand_env("{ a: \"${ID}.pem\", b: \"${ID}\" }", env).unwrap(),
+            "{ a: \"stepper.pem\", b: \"stepper\" }"
+        );
+        let missing = expand_env("{ key: \"${TLS_DIR}/ca.pem\" }", env).unwrap_err();
+        assert!(missing.contains("TLS_DIR is not set"), "{missing}");
+        assert!(expand_env("{ a: \"${ID\" }", env).is_err());
+        assert_eq!(expand_env("no variables", env).unwrap(), "no variables");
+    }
 }

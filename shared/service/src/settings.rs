@@ -362,6 +362,12 @@ pub struct AdminSettings {
     /// Origin allowed to call the API from a browser page elsewhere (repeatable). None: CORS off.
     #[arg(long = "cors-origin")]
     pub cors_origins: Vec<String>,
+    /// Serve HTTPS with this certificate chain (PEM; with --tls-key). None: plain HTTP.
+    #[arg(long, env = "TRAFFICMESH_ADMIN_TLS_CERT", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// The HTTPS certificate's private key (PEM, PKCS#8, PKCS#1 or SEC1).
+    #[arg(long, env = "TRAFFICMESH_ADMIN_TLS_KEY", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
 }
 
 impl Default for AdminSettings {
@@ -375,6 +381,8 @@ impl Default for AdminSettings {
             request_timeout: 10.0,
             bus_timeout: 3.0,
             cors_origins: Vec::new(),
+            tls_cert: None,
+            tls_key: None,
         }
     }
 }
@@ -387,6 +395,11 @@ impl Settings for AdminSettings {
             (
                 "max_body_bytes",
                 (self.max_body_bytes == 0).then(|| "must be positive".to_string()),
+            ),
+            (
+                "tls_cert",
+                (self.tls_cert.is_some() != self.tls_key.is_some())
+                    .then(|| "tls_cert and tls_key go together".to_string()),
             ),
         ])
     }
@@ -403,6 +416,10 @@ impl Settings for AdminSettings {
         }
         for origin in &self.cors_origins {
             flags.extend(flag("cors_origin", origin));
+        }
+        if let (Some(cert), Some(key)) = (&self.tls_cert, &self.tls_key) {
+            flags.extend(flag("tls_cert", cert.display()));
+            flags.extend(flag("tls_key", key.display()));
         }
         flags
     }
