@@ -72,22 +72,35 @@ fn identity_env(tls: &Path, identity: &str) -> Env {
         .collect()
 }
 
+/// How long a stranger's session tries before it counts as refused, and
+/// how long one that is let in may take (a loaded machine's TLS handshakes).
+const REFUSED_AFTER_MS: u32 = 5_000;
+const LET_IN_WITHIN_MS: u32 = 30_000;
+
 /// deploy/zenoh/secure/service.json5 for `identity` (its password, or
-/// another), dialling the router at `port` and giving up after 5 s.
-fn client_config(tls: &Path, identity: &str, password: &str, port: u16) -> zenoh::Config {
+/// another), dialling the router at `port` and giving up after `timeout_ms`.
+fn client_config(
+    tls: &Path,
+    identity: &str,
+    password: &str,
+    port: u16,
+    timeout_ms: u32,
+) -> zenoh::Config {
     let text = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
         .unwrap()
         .replace("${TRAFFICMESH_TLS_DIR}", &tls.display().to_string())
         .replace("${TRAFFICMESH_IDENTITY}", identity)
         .replace("${TRAFFICMESH_ZENOH_PASSWORD}", password);
     assert!(!text.contains("${"), "service.json5 uses another variable");
-    with_endpoint(zenoh::Config::from_json5(&text).unwrap(), port)
+    with_endpoint(zenoh::Config::from_json5(&text).unwrap(), port, timeout_ms)
 }
 
-fn with_endpoint(mut config: zenoh::Config, port: u16) -> zenoh::Config {
+fn with_endpoint(mut config: zenoh::Config, port: u16, timeout_ms: u32) -> zenoh::Config {
     let endpoint = format!("[\"tls/localhost:{port}\"]");
     config.insert_json5("connect/endpoints", &endpoint).unwrap();
-    config.insert_json5("connect/timeout_ms", "5000").unwrap();
+    config
+        .insert_json5("connect/timeout_ms", &timeout_ms.to_string())
+        .unwrap();
     config
         .insert_json5("connect/exit_on_failure", "true")
         .unwrap();
@@ -256,9 +269,15 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
     runtime.block_on(async {
         // An observer with its certificate and password sees the cluster work
         // under the access rules: vehicle batches and light states arrive.
-        let observer = open(client_config(&tls, "observer", &password("observer"), port))
-            .await
-            .unwrap_or_else(|e| panic!("the observer was refused: {e}\n{}", all_logs()));
+        let observer = open(client_config(
+            &tls,
+            "observer",
+            &password("observer"),
+            port,
+            LET_IN_WITHIN_MS,
+        ))
+        .await
+        .unwrap_or_else(|e| panic!("the observer was refused: {e}\n{}", all_logs()));
         let vehicles = collect(&observer, format!("{cluster}/vehicles")).await;
         let lights = collect(&observer, format!("{cluster}/lights/**")).await;
         let deadline = Instant::now() + Duration::from_secs(40);
@@ -283,7 +302,11 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             .join("\n")
             .replace("${TRAFFICMESH_IDENTITY}", "observer")
             .replace("${TRAFFICMESH_ZENOH_PASSWORD}", &password("observer"));
-        let no_cert = with_endpoint(zenoh::Config::from_json5(&no_cert).unwrap(), port);
+        let no_cert = with_endpoint(
+            zenoh::Config::from_json5(&no_cert).unwrap(),
+            port,
+            REFUSED_AFTER_MS,
+        );
         assert!(
             open(no_cert).await.is_err(),
             "a process without a certificate got in"
@@ -299,12 +322,16 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             .replace("${TRAFFICMESH_TLS_DIR}", &other.display().to_string())
             .replace("${TRAFFICMESH_IDENTITY}", "observer")
             .replace("${TRAFFICMESH_ZENOH_PASSWORD}", &password("observer"));
-        let foreign = with_endpoint(zenoh::Config::from_json5(&foreign).unwrap(), port);
+        let foreign = with_endpoint(
+            zenoh::Config::from_json5(&foreign).unwrap(),
+            port,
+            REFUSED_AFTER_MS,
+        );
         assert!(
             open(foreign).await.is_err(),
             "a certificate of another CA got in"
         );
-        let wrong = client_config(&tls, "observer", "not-the-password", port);
+        let wrong = client_config(&tls, "observer", "not-the-password", port, REFUSED_AFTER_MS);
         assert!(open(wrong).await.is_err(), "a wrong password got in");
 
         // Keys not owned: the pedestrians service (let in) forges vehicle
@@ -315,6 +342,7 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             "pedestrians",
             &password("pedestrians"),
             port,
+            LET_IN_WITHIN_MS,
         ))
         .await
         .expect("the pedestrians identity is let in");
@@ -376,9 +404,15 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             0,
             "the observer's command was answered"
         );
-        let admin = open(client_config(&tls, "admin", &password("admin"), port))
-            .await
-            .expect("the admin identity is let in");
+        let admin = open(client_config(
+            &tls,
+            "admin",
+            &password("admin"),
+            port,
+            LET_IN_WITHIN_MS,
+        ))
+        .await
+        .expect("the admin identity is let in");
         assert_eq!(
             answers(admin).await,
             1,
