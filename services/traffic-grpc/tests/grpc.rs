@@ -172,104 +172,23 @@ fn sigterm_stops_the_service_gracefully() {
     assert!(service.wait().success());
 }
 
-/// A CA, a server certificate for 127.0.0.1 and a client certificate, made
-/// with openssl as a deployment's script would.
+/// The certificates of a deployment, made by its script
+/// (deploy/secure/make-certs.sh): the CA, the HTTPS certificate the admin
+/// and the traffic service serve with (for localhost and 127.0.0.1) and the
+/// `runtime` identity's client certificate.
 fn certificates(dir: &Path) -> PathBuf {
     let certs = dir.join("certs");
-    std::fs::create_dir(&certs).unwrap();
-    std::fs::write(
-        certs.join("server.ext"),
-        "subjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n",
-    )
-    .unwrap();
-    std::fs::write(certs.join("client.ext"), "extendedKeyUsage=clientAuth\n").unwrap();
-    let steps: [&[&str]; 5] = [
-        &[
-            "req",
-            "-x509",
-            "-newkey",
-            "rsa:2048",
-            "-nodes",
-            "-keyout",
-            "ca.key",
-            "-out",
-            "ca.pem",
-            "-days",
-            "2",
-            "-subj",
-            "/CN=trafficmesh test CA",
-        ],
-        &[
-            "req",
-            "-newkey",
-            "rsa:2048",
-            "-nodes",
-            "-keyout",
-            "server.key",
-            "-out",
-            "server.csr",
-            "-subj",
-            "/CN=localhost",
-        ],
-        &[
-            "x509",
-            "-req",
-            "-in",
-            "server.csr",
-            "-CA",
-            "ca.pem",
-            "-CAkey",
-            "ca.key",
-            "-CAcreateserial",
-            "-out",
-            "server.pem",
-            "-days",
-            "2",
-            "-extfile",
-            "server.ext",
-        ],
-        &[
-            "req",
-            "-newkey",
-            "rsa:2048",
-            "-nodes",
-            "-keyout",
-            "client.key",
-            "-out",
-            "client.csr",
-            "-subj",
-            "/CN=runtime",
-        ],
-        &[
-            "x509",
-            "-req",
-            "-in",
-            "client.csr",
-            "-CA",
-            "ca.pem",
-            "-CAkey",
-            "ca.key",
-            "-CAcreateserial",
-            "-out",
-            "client.pem",
-            "-days",
-            "2",
-            "-extfile",
-            "client.ext",
-        ],
-    ];
-    for args in steps {
-        let out = Command::new("openssl")
-            .args(args)
-            .current_dir(&certs)
-            .output()
-            .expect("openssl (apt-get install openssl)");
-        assert!(
-            out.status.success(),
-            "openssl {args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    }
+    let script = trafficmesh_testkit::repo_root().join("deploy/secure/make-certs.sh");
+    let out = Command::new("bash")
+        .arg(script)
+        .arg(&certs)
+        .output()
+        .expect("bash runs");
+    assert!(
+        out.status.success(),
+        "make-certs.sh (needs openssl): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     certs
 }
 
@@ -289,9 +208,9 @@ fn over_mutual_tls_only_clients_with_a_certificate_are_served() {
         dir.path(),
         &[
             "--tls-cert".into(),
-            file("server.pem"),
+            file("https.pem"),
             "--tls-key".into(),
-            file("server.key"),
+            file("https.key"),
             "--tls-client-ca".into(),
             file("ca.pem"),
         ],

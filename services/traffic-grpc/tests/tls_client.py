@@ -2,7 +2,7 @@
 certificates calls it: with its client certificate it gets the metadata;
 without one, or without TLS, it is refused. Prints OK.
 
-usage: tls_client.py <generated stubs dir> <address> <certificate dir>
+usage: tls_client.py <generated stubs dir> <address> <certificate dir of make-certs.sh>
 """
 
 import os
@@ -26,7 +26,8 @@ def metadata(channel):
     return traffic_pb2_grpc.TrafficServiceStub(channel).get_metadata(common.Empty(), timeout=10)
 
 
-mutual = grpc.ssl_channel_credentials(read("ca.pem"), read("client.key"), read("client.pem"))
+# The `runtime` identity of deploy/secure/make-certs.sh.
+mutual = grpc.ssl_channel_credentials(read("ca.pem"), read("runtime.key"), read("runtime.pem"))
 assert metadata(grpc.secure_channel(address, mutual)).minimum_history_length_us == 1_000_000
 
 for name, channel in [
