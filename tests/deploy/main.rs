@@ -351,6 +351,10 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
                     s["alive"] == true
                         && s["pid"].as_u64().is_some()
                         && !s["host"].as_str().unwrap_or("").is_empty()
+                        // Each a client of the one router.
+                        && s["peers"].as_array().is_some_and(|p| {
+                            p.len() == 1 && p[0].as_str().unwrap_or("").starts_with("router ")
+                        })
                 })
     };
     let asked = Instant::now();

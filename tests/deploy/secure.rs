@@ -290,6 +290,26 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             tokio::time::sleep(Duration::from_millis(100)).await;
         }
 
+        // The identities that act below, let in with their certificates.
+        let pedestrians = open(client_config(
+            &tls,
+            "pedestrians",
+            &password("pedestrians"),
+            port,
+            LET_IN_WITHIN_MS,
+        ))
+        .await
+        .expect("the pedestrians identity is let in");
+        let admin = open(client_config(
+            &tls,
+            "admin",
+            &password("admin"),
+            port,
+            LET_IN_WITHIN_MS,
+        ))
+        .await
+        .expect("the admin identity is let in");
+
         // Strangers: no certificate, a certificate of another CA, a wrong
         // password. Each is refused at the door.
         let no_cert = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
@@ -337,15 +357,6 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
         // Keys not owned: the pedestrians service (let in) forges vehicle
         // states and a light state; none of it arrives, while the stepper's
         // and the lights' own keep coming.
-        let pedestrians = open(client_config(
-            &tls,
-            "pedestrians",
-            &password("pedestrians"),
-            port,
-            LET_IN_WITHIN_MS,
-        ))
-        .await
-        .expect("the pedestrians identity is let in");
         let (before_vehicles, before_lights) =
             (vehicles.lock().unwrap().len(), lights.lock().unwrap().len());
         let forged = b"forged by pedestrians".to_vec();
@@ -404,15 +415,6 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
             0,
             "the observer's command was answered"
         );
-        let admin = open(client_config(
-            &tls,
-            "admin",
-            &password("admin"),
-            port,
-            LET_IN_WITHIN_MS,
-        ))
-        .await
-        .expect("the admin identity is let in");
         assert_eq!(
             answers(admin).await,
             1,
@@ -489,6 +491,17 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
         "admin",
     ] {
         assert!(alive.contains(service), "{service} not alive: {health}");
+        // Its status answered the query (a reply on its own key), linked
+        // to the router.
+        let status = &health["services"][service];
+        assert!(
+            status["pid"].is_u64(),
+            "{service}'s status did not answer: {health}"
+        );
+        assert!(
+            status["peers"].to_string().contains("router "),
+            "{service} is linked to no router: {health}"
+        );
     }
     drop(processes);
 }

@@ -32,6 +32,18 @@ impl BadPayloads {
     }
 }
 
+/// The Zenoh sessions `session` is linked to: its routers and peers, by id.
+async fn zenoh_peers(session: &zenoh::Session) -> Vec<String> {
+    let info = session.info();
+    let mut peers: Vec<String> = info
+        .routers_zid()
+        .await
+        .map(|z| format!("router {z}"))
+        .collect();
+    peers.extend(info.peers_zid().await.map(|z| format!("peer {z}")));
+    peers
+}
+
 /// Publishes the service's status once a second and answers gets for it.
 /// `details` gives the simulation time and the service's own counters.
 pub fn serve_status(
@@ -49,7 +61,7 @@ pub fn serve_status(
             tracing::error!("cannot declare {key}");
             return;
         };
-        let status = || {
+        let status = |peers: Vec<String>| {
             let (time, details) = details();
             let (bad_payloads, bad_payloads_by_key) = bus.bad_payloads().snapshot();
             ServiceStatus {
@@ -61,16 +73,17 @@ pub fn serve_status(
                 bad_payloads_by_key,
                 details,
                 map: map.map(fingerprint_text),
+                peers,
             }
         };
         let mut every_second = tokio::time::interval(Duration::from_secs(1));
         loop {
             tokio::select! {
                 _ = every_second.tick() => {
-                    let _ = publisher.put(&status()).await;
+                    let _ = publisher.put(&status(zenoh_peers(bus.session()).await)).await;
                 }
                 Ok(query) = queryable.recv_async() => {
-                    bus.reply(&query, &status()).await;
+                    bus.reply(&query, &status(zenoh_peers(bus.session()).await)).await;
                 }
             }
         }

@@ -26,7 +26,7 @@ pub struct StatusArgs {
     )]
     expect: Vec<String>,
     /// Print one JSON object: `{cluster, degraded, reasons, time, services:
-    /// {name: {alive, host, pid, lag_s, errors}}}`.
+    /// {name: {alive, host, pid, lag_s, errors, peers}}}`.
     #[arg(long)]
     json: bool,
     /// How long to wait for every expected service to answer, seconds.
@@ -55,6 +55,8 @@ struct ServiceHealth {
     lag_s: Option<f64>,
     /// Payloads it dropped as unusable.
     errors: u64,
+    /// The Zenoh sessions it is linked to (`router <zid>`, `peer <zid>`).
+    peers: Vec<String>,
 }
 
 pub fn run(a: StatusArgs) -> Result<()> {
@@ -151,6 +153,7 @@ fn health(
                 pid: status.map(|s| s.pid),
                 lag_s: lag,
                 errors: status.map_or(0, |s| s.bad_payloads),
+                peers: status.map_or_else(Vec::new, |s| s.peers.clone()),
             };
             (name.clone(), health)
         })
@@ -176,18 +179,19 @@ fn text(h: &Health) -> String {
         out.push_str(&format!("  - {r}\n"));
     }
     out.push_str(&format!(
-        "{:<14} {:<6} {:<20} {:>8} {:>8} {:>7}\n",
-        "service", "alive", "host", "pid", "lag_s", "errors"
+        "{:<14} {:<6} {:<20} {:>8} {:>8} {:>7}  {}\n",
+        "service", "alive", "host", "pid", "lag_s", "errors", "zenoh links"
     ));
     for (name, s) in &h.services {
         out.push_str(&format!(
-            "{:<14} {:<6} {:<20} {:>8} {:>8} {:>7}\n",
+            "{:<14} {:<6} {:<20} {:>8} {:>8} {:>7}  {}\n",
             name,
             if s.alive { "yes" } else { "NO" },
             s.host.as_deref().unwrap_or("-"),
             s.pid.map_or("-".into(), |p| p.to_string()),
             s.lag_s.map_or("-".into(), |l| format!("{l:.2}")),
-            s.errors
+            s.errors,
+            s.peers.len()
         ));
     }
     out

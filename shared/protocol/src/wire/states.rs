@@ -119,4 +119,7 @@ pub struct ServiceStatus {
     /// services that address lanes; services refuse a stepper with another.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<String>,
+    /// The Zenoh sessions it is linked to, by id: `router <zid>` or `peer <zid>`.
+    #[serde(default)]
+    pub peers: Vec<String>,
 }
