@@ -5,8 +5,10 @@
 #[allow(dead_code)]
 mod support;
 
+mod flood;
 mod intersection;
 mod lockstep;
+mod resume;
 
 use std::collections::HashSet;
 use std::time::{Duration, Instant};

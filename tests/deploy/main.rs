@@ -4,6 +4,7 @@
 //! the router found by name as on real hosts; then one host's link cut. Needs root and iproute2: a
 //! notice and a skip without them, unless TRAFFICMESH_REQUIRE_NETNS=1 (CI).
 
+mod container;
 mod secure;
 
 use std::collections::BTreeMap;

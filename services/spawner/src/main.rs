@@ -13,12 +13,13 @@ use std::process::ExitCode;
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
-use anyhow::Result;
+use anyhow::{Context, Result};
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
 use trafficmesh_protocol::wire::{Clock, LockstepTick, TickReport};
 use trafficmesh_service::settings::SpawnerSettings;
 use trafficmesh_service::{Service, ServiceArgs};
+use trafficmesh_sim::branching::BranchStats;
 use trafficmesh_sim::spawn::SpawnRequest;
 
 use crate::state::SpawnerState;
@@ -49,9 +50,38 @@ pub struct Spawner {
     pending: Mutex<(Vec<SpawnRequest>, f64)>,
     /// A failed spawn query was logged; quiet until one succeeds.
     warned: AtomicBool,
+    /// The decisions counted when the CSV was last written, and when.
+    stats_saved: Mutex<(u64, std::time::Instant)>,
 }
 
+/// Seconds between two writes of the branch-decision CSV while running: a
+/// spawner killed without warning loses at most this much of them.
+const STATS_SAVE_INTERVAL: std::time::Duration = std::time::Duration::from_secs(5);
+
 impl Spawner {
+    /// Writes the branch-decision CSV every few seconds while decisions come
+    /// in, off the async workers (atomically: a kill mid-write leaves the
+    /// last one whole).
+    async fn save_stats_when_due(&self) {
+        let csv = {
+            let mut saved = self.stats_saved.lock().expect("stats lock");
+            let total = self.state().stats.total();
+            if total == saved.0 || saved.1.elapsed() < STATS_SAVE_INTERVAL {
+                return;
+            }
+            *saved = (total, std::time::Instant::now());
+            self.state().branch_csv()
+        };
+        let path = self.branch_csv_path.clone();
+        let written = tokio::task::spawn_blocking(move || {
+            trafficmesh_maps::write_atomic(&path, csv.as_bytes())
+        })
+        .await;
+        if let Ok(Err(e)) = written {
+            tracing::warn!("cannot save the branch statistics: {e}");
+        }
+    }
+
     pub fn state(&self) -> std::sync::MutexGuard<'_, SpawnerState> {
         self.state.lock().expect("spawner state lock")
     }
@@ -98,12 +128,31 @@ fn build(args: &Args) -> Result<(u64, Spawner)> {
             .map_err(|problems| anyhow::anyhow!("{}: {}", path.display(), problems.join("; ")))?;
         tracing::info!("loaded spawn config {}", path.display());
     }
+    // The statistics of the run so far, when a spawner of it wrote them.
+    let csv = &settings.branch_csv;
+    if csv.exists() {
+        let text = std::fs::read_to_string(csv)
+            .with_context(|| format!("cannot read {}", csv.display()))?;
+        state.stats = BranchStats::from_csv(&state.net, &text).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: {e}; move it away to start the branch statistics afresh",
+                csv.display()
+            )
+        })?;
+        tracing::info!(
+            "resumed {} branch decisions from {} (move it away to start afresh)",
+            state.stats.total(),
+            csv.display()
+        );
+    }
+    let saved = state.stats.total();
     let spawner = Spawner {
         state: Mutex::new(state),
         spawn_config_path: settings.spawn_config.clone(),
         branch_csv_path: settings.branch_csv.clone(),
         pending: Mutex::new((Vec::new(), 0.0)),
         warned: AtomicBool::new(false),
+        stats_saved: Mutex::new((saved, std::time::Instant::now())),
     };
     Ok((map, spawner))
 }
@@ -145,11 +194,14 @@ impl Service for Spawner {
 
     async fn on_clock(&self, bus: &Arc<Bus>, clock: Clock) -> Result<()> {
         spawn_loop::on_clock(self, bus, clock).await;
+        self.save_stats_when_due().await;
         Ok(())
     }
 
     async fn on_tick(&self, bus: &Arc<Bus>, tick: LockstepTick) -> TickReport {
-        spawn_loop::on_tick(self, bus, tick).await
+        let report = spawn_loop::on_tick(self, bus, tick).await;
+        self.save_stats_when_due().await;
+        report
     }
 
     /// The branch-decision CSV, written whole or not at all.

@@ -59,6 +59,10 @@ pub struct StepperStatus {
     pub lockstep_members: Vec<String>,
     /// The NPCVehicleConfig in force (accelerations, speed limit, driver model).
     pub vehicle_config: trafficmesh_model::NpcVehicleConfig,
+    /// The snapshot tick this stepper resumed from, and the ticks the
+    /// cluster had seen past it (lost with the previous stepper), if it did.
+    pub resumed_from_tick: Option<u64>,
+    pub ticks_lost: Option<u64>,
 }
 
 /// A trajectory hash as `sim --json` prints it (16 hex digits).
@@ -208,6 +212,25 @@ async fn serve<T: DeserializeOwned + Send + 'static>(
 
 /// Late join: asks the lights and crosswalks services for their current states
 /// and the spawner for its config, so a restarted stepper need not wait for changes.
+/// While light or crosswalk states are stale (their service cut off, or its
+/// changes lost in a partition), asks for them again once a second: what a
+/// partition lost comes back as soon as the link does, not at the next change.
+pub fn catch_up_while_stale(bus: Arc<Bus>, tx: InputSender, shared: Arc<Shared>) {
+    tokio::spawn(async move {
+        let mut every = tokio::time::interval(Duration::from_secs(1));
+        loop {
+            every.tick().await;
+            let stale = {
+                let s = shared.status.lock().expect("status lock");
+                s.lights_stale || s.crosswalks_stale
+            };
+            if stale {
+                fetch_late_states(&bus, &tx).await;
+            }
+        }
+    });
+}
+
 pub async fn fetch_late_states(bus: &Bus, tx: &InputSender) {
     let keys = bus.keys();
     let wait = Duration::from_millis(500);

@@ -7,6 +7,7 @@ mod commands;
 mod inputs;
 mod intersections;
 mod lockstep;
+mod snapshots;
 mod telemetry;
 mod tick_loop;
 
@@ -85,10 +86,29 @@ fn run(args: Args) -> Result<()> {
     // Lights come from the lights service: red until it vouches for them.
     let mut world = World::new(net, config).without_simulators();
     world.use_remote_lights();
-    if settings.populate > 0 {
+    let resumed = match &settings.snapshot {
+        Some(path) => snapshots::load(path)?
+            .map(|snapshot| {
+                world.restore(&snapshot).with_context(|| {
+                    format!(
+                        "cannot resume from {}; move it away to start from an empty road",
+                        path.display()
+                    )
+                })?;
+                anyhow::Ok(snapshot)
+            })
+            .transpose()?,
+        None => None,
+    };
+    if settings.populate > 0 && resumed.is_none() {
         let placed = trafficmesh_sim::populate::populate(&mut world, settings.populate);
         tracing::info!("placed {placed} vehicles");
     }
+    let saver = settings
+        .snapshot
+        .clone()
+        .map(|path| snapshots::Saver::start(path, settings.snapshot_every, world.time()))
+        .transpose()?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()
@@ -116,7 +136,29 @@ fn run(args: Args) -> Result<()> {
         let status = shared.clone();
         let map = Some(world.network().fingerprint());
         trafficmesh_bus::serve_status(bus.clone(), map, Arc::new(move || status.status()));
+        if let Some(snapshot) = &resumed {
+            let seen = cluster_time(&bus).await;
+            let lost = seen.map(|t| ((t - snapshot.time) / world.config().dt).round().max(0.0) as u64);
+            match (seen, lost) {
+                (Some(seen), Some(lost)) => tracing::info!(
+                    "resumed from the snapshot of tick {} (t={:.2} s, {} vehicles); the cluster had seen t={seen:.2} s: {lost} ticks lost",
+                    snapshot.tick,
+                    snapshot.time,
+                    snapshot.vehicles.len()
+                ),
+                _ => tracing::info!(
+                    "resumed from the snapshot of tick {} (t={:.2} s, {} vehicles); no other service says how far the cluster had come",
+                    snapshot.tick,
+                    snapshot.time,
+                    snapshot.vehicles.len()
+                ),
+            }
+            let mut s = shared.status.lock().expect("status lock");
+            s.resumed_from_tick = Some(snapshot.tick);
+            s.ticks_lost = lost;
+        }
         inputs::fetch_late_states(&bus, &tx).await;
+        inputs::catch_up_while_stale(bus.clone(), tx.clone(), shared.clone());
         let lockstep = args.lockstep.then(|| {
             tracing::info!(
                 "lockstep: each tick waits for {}",
@@ -136,6 +178,7 @@ fn run(args: Args) -> Result<()> {
             speed: args.settings.speed,
             duration: args.settings.duration,
             lockstep,
+            saver,
         };
         // In place before the tick thread announces anything.
         let signal = runtime::shutdown_signal();
@@ -160,6 +203,31 @@ fn run(args: Args) -> Result<()> {
             .ok();
         Ok(())
     })
+}
+
+/// The latest simulation time any other service has seen, asked for up to
+/// two seconds (they come back to a restarted stepper one by one).
+async fn cluster_time(bus: &Bus) -> Option<f64> {
+    let key = bus.keys().key_all(&trafficmesh_protocol::topics::STATUS);
+    let deadline = tokio::time::Instant::now() + std::time::Duration::from_secs(2);
+    loop {
+        let statuses = bus
+            .get_each::<trafficmesh_protocol::wire::ServiceStatus>(
+                &key,
+                std::time::Duration::from_millis(300),
+            )
+            .await
+            .unwrap_or_default();
+        let seen = statuses
+            .iter()
+            .filter(|s| s.service != "stepper" && s.time > 0.0)
+            .map(|s| s.time)
+            .reduce(f64::max);
+        if seen.is_some() || tokio::time::Instant::now() >= deadline {
+            return seen;
+        }
+        tokio::time::sleep(std::time::Duration::from_millis(100)).await;
+    }
 }
 
 async fn wait_thread(handle: &std::thread::JoinHandle<()>) {

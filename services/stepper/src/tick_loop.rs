@@ -22,6 +22,8 @@ pub struct Pacing {
     pub duration: Option<f64>,
     /// Each tick waits for the lockstep members' answers.
     pub lockstep: Option<Lockstep>,
+    /// Saves the road every few simulated seconds.
+    pub saver: Option<crate::snapshots::Saver>,
 }
 
 /// Applies what arrived since the last tick, in arrival order; false on Stop.
@@ -44,32 +46,47 @@ fn drain(
     }
 }
 
+/// Runs the ticks until stopped (or the duration is over), then saves the
+/// last road when snapshots are on: a stepper stopped on purpose loses none.
 pub fn run(
     mut world: World,
     inputs_rx: Receiver<Input>,
     bus: Arc<Bus>,
-    mut outputs: Outputs,
+    outputs: Outputs,
     mut pacing: Pacing,
+    shared: Arc<Shared>,
+) {
+    ticks(&mut world, inputs_rx, bus, outputs, &mut pacing, shared);
+    if let Some(saver) = pacing.saver.take() {
+        saver.save_last(world.snapshot());
+    }
+}
+
+fn ticks(
+    world: &mut World,
+    inputs_rx: Receiver<Input>,
+    bus: Arc<Bus>,
+    mut outputs: Outputs,
+    pacing: &mut Pacing,
     shared: Arc<Shared>,
 ) {
     let dt = world.config().dt;
     let mut inputs = InputState::default();
-    let started = Instant::now();
+    // Real time runs from where the road starts (a resumed one mid-run).
+    let (started, start_time) = (Instant::now(), world.time());
     let mut rate_window = (Instant::now(), 0u64);
     let mut tick_rate = 0.0;
     let (mut spawned, mut despawned, mut arrived) = (0u64, 0u64, 0u64);
     let mut stuck = 0;
     loop {
-        if !drain(&mut world, &mut inputs, &inputs_rx, &bus) {
+        if !drain(world, &mut inputs, &inputs_rx, &bus) {
             return;
         }
         if let Some(lockstep) = &mut pacing.lockstep {
-            let question = lockstep.question(&world);
-            let answers = lockstep.round(&question, || {
-                drain(&mut world, &mut inputs, &inputs_rx, &bus)
-            });
+            let question = lockstep.question(world);
+            let answers = lockstep.round(&question, || drain(world, &mut inputs, &inputs_rx, &bus));
             let Some(answers) = answers else { return };
-            lockstep::apply(&bus, &mut world, &mut inputs, answers);
+            lockstep::apply(&bus, world, &mut inputs, answers);
         }
         let stale = world.time() > inputs.crosswalks_valid_until;
         if stale != world.occupancy().is_stale() {
@@ -88,13 +105,13 @@ pub fn run(
         let t0 = Instant::now();
         world.step();
         let tick_ms = t0.elapsed().as_secs_f64() * 1e3;
-        let verdicts = inputs.finish_spawns(&mut world);
+        let verdicts = inputs.finish_spawns(world);
         if let Some(lockstep) = &mut pacing.lockstep {
             lockstep.verdicts = verdicts;
         }
 
         let raw: Vec<_> = world.drain_events().collect();
-        let events: Vec<Event> = wire_events(&world, raw);
+        let events: Vec<Event> = wire_events(world, raw);
         for e in &events {
             match e {
                 Event::Spawned { .. } => spawned += 1,
@@ -154,7 +171,12 @@ pub fn run(
                 s.lockstep_members.clone_from(&lockstep.members);
             }
         }
-        let vehicles = outputs.vehicle_states(&world);
+        if let Some(saver) = &mut pacing.saver
+            && saver.due(world.time())
+        {
+            saver.save(world.snapshot());
+        }
+        let vehicles = outputs.vehicle_states(world);
         outputs.offer(TickOutput {
             clock,
             vehicles,
@@ -170,7 +192,7 @@ pub fn run(
             return;
         }
         if pacing.speed > 0.0 {
-            let due = started + Duration::from_secs_f64(world.time() / pacing.speed);
+            let due = started + Duration::from_secs_f64((world.time() - start_time) / pacing.speed);
             let now = Instant::now();
             if due > now {
                 std::thread::sleep(due - now);

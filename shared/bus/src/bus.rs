@@ -196,10 +196,10 @@ impl Bus {
         }
     }
 
-    /// Logs and counts a payload that decoded but cannot be used.
+    /// Counts a payload that cannot be used, and logs why (at most once
+    /// every few seconds per key).
     pub fn reject(&self, key: &str, reason: &str) {
-        tracing::warn!("dropped bad payload on {key}: {reason}");
-        self.bad.count(key);
+        self.bad.count(key, reason);
     }
 
     /// A query's JSON payload; a bad one is answered with an error, counted and None.

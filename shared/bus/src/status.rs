@@ -11,19 +11,44 @@ use trafficmesh_protocol::wire::ServiceStatus;
 
 use crate::{Bus, BusError, Lane};
 
+/// A key's bad payloads are logged at most this often (the first at once):
+/// a flood of them must not become a flood of log lines.
+const LOG_EVERY: Duration = Duration::from_secs(10);
+
 #[derive(Debug, Default)]
 pub struct BadPayloads {
     by_key: Mutex<BTreeMap<String, u64>>,
+    /// Per key: when one was last logged, and how many came since.
+    logged: Mutex<BTreeMap<String, (std::time::Instant, u64)>>,
 }
 
 impl BadPayloads {
-    pub fn count(&self, key: &str) {
+    /// Counts one more on `key`, and logs why, unless one on the same key
+    /// was logged within [`LOG_EVERY`] (the next line then says how many
+    /// came in between).
+    pub fn count(&self, key: &str, reason: &str) {
         *self
             .by_key
             .lock()
             .expect("counter lock")
             .entry(key.to_string())
             .or_insert(0) += 1;
+        let mut logged = self.logged.lock().expect("log lock");
+        let now = std::time::Instant::now();
+        match logged.get_mut(key) {
+            Some((at, unlogged)) if now.duration_since(*at) < LOG_EVERY => *unlogged += 1,
+            Some((at, unlogged)) => {
+                tracing::warn!(
+                    "dropped bad payload on {key}: {reason} ({} more since the last such line)",
+                    *unlogged
+                );
+                (*at, *unlogged) = (now, 0);
+            }
+            None => {
+                tracing::warn!("dropped bad payload on {key}: {reason}");
+                logged.insert(key.to_string(), (now, 0));
+            }
+        }
     }
 
     pub fn snapshot(&self) -> (u64, BTreeMap<String, u64>) {

@@ -12,6 +12,7 @@ pub mod geometry;
 pub mod hash;
 pub mod map;
 pub mod reservation;
+pub mod snapshot;
 pub mod spawn_config;
 pub mod vehicle_config;
 

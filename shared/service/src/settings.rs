@@ -198,6 +198,14 @@ pub struct StepperSettings {
     /// --lockstep).
     #[arg(skip)]
     pub lockstep: Option<bool>,
+    /// Save the road to this file every `snapshot_every` simulated seconds
+    /// (atomically), and resume from it at start when it exists: a restarted
+    /// stepper carries on with the vehicles it had, not an empty road.
+    #[arg(long)]
+    pub snapshot: Option<PathBuf>,
+    /// Simulated seconds between two snapshots.
+    #[arg(long, default_value_t = StepperSettings::default().snapshot_every, allow_negative_numbers = true)]
+    pub snapshot_every: f64,
 }
 
 impl Default for StepperSettings {
@@ -210,6 +218,8 @@ impl Default for StepperSettings {
             driver_model: None,
             jam_timeout: trafficmesh_sim::world::DEFAULT_JAM_TIMEOUT,
             lockstep: None,
+            snapshot: None,
+            snapshot_every: 5.0,
         }
     }
 }
@@ -257,6 +267,7 @@ impl Settings for StepperSettings {
                 (!(j.is_finite() && j >= 0.0))
                     .then(|| format!("must be 0 (never) or a positive number of seconds, got {j}")),
             ),
+            ("snapshot_every", positive_seconds(self.snapshot_every)),
         ])
     }
     fn flags(&self) -> Vec<String> {
@@ -272,6 +283,10 @@ impl Settings for StepperSettings {
         }
         if let Some(d) = self.duration {
             flags.extend(flag("duration", d));
+        }
+        if let Some(path) = &self.snapshot {
+            flags.extend(flag("snapshot", path.display()));
+            flags.extend(flag("snapshot_every", self.snapshot_every));
         }
         flags
     }

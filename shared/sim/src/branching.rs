@@ -177,6 +177,46 @@ impl BranchStats {
         self.rows.values().map(|t| t.count).sum()
     }
 
+    /// The statistics a CSV of [`BranchStats::to_csv`] holds, read back (the
+    /// spawner's after a restart): counts exactly, the weight and
+    /// probability sums from their averages. An error names the line and
+    /// what is wrong with it.
+    pub fn from_csv(net: &LaneNetwork, text: &str) -> Result<BranchStats, String> {
+        let mut reader = csv::ReaderBuilder::new().from_reader(text.as_bytes());
+        let header = reader.headers().map_err(|e| format!("header: {e}"))?;
+        if header.iter().collect::<Vec<_>>().join(",") != BRANCH_CSV_HEADER {
+            return Err(format!("header is not {BRANCH_CSV_HEADER}"));
+        }
+        let mut stats = BranchStats::default();
+        for (k, record) in reader.records().enumerate() {
+            let line = k + 2;
+            let record = record.map_err(|e| format!("line {line}: {e}"))?;
+            let lane = |i: usize| {
+                net.lane_id(&record[i])
+                    .ok_or_else(|| format!("line {line}: no lane '{}' on this map", &record[i]))
+            };
+            let number = |i: usize| -> Result<f64, String> {
+                record[i]
+                    .parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite() && *x >= 0.0)
+                    .ok_or_else(|| format!("line {line}: '{}' is not a number", &record[i]))
+            };
+            let (from, to) = (lane(0)?, lane(1)?);
+            let mode = SelectionMode::parse(&record[2])
+                .ok_or_else(|| format!("line {line}: '{}' is no selection mode", &record[2]))?;
+            let count: u64 = record[3]
+                .parse()
+                .map_err(|_| format!("line {line}: '{}' is not a count", &record[3]))?;
+            let n = count as f64;
+            let t = stats.rows.entry((from, to, mode)).or_default();
+            t.count += count;
+            t.weight_sum += number(8)? * n;
+            t.probability_sum += number(9)? * n;
+        }
+        Ok(stats)
+    }
+
     /// The CSV, header first, one row per (from_lane, to_lane, selection_mode),
     /// sorted by lane names then mode; ratios and averages with 6 decimals.
     pub fn to_csv(&self, net: &LaneNetwork) -> String {

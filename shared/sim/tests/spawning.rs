@@ -7,6 +7,7 @@ use glam::DVec2;
 use serde_json::json;
 use support::*;
 use trafficmesh_model::{BranchWeights, MapFile, NextWeight, SpawnRate, TrafficSpawnConfig};
+use trafficmesh_sim::branching::BranchStats;
 use trafficmesh_sim::world::{QueuedSpawn, SpawnRejection};
 use trafficmesh_sim::{Ego, SimEvent, WorldConfig};
 
@@ -190,6 +191,15 @@ fn weights_2_to_1_give_2_to_1_frequencies() {
         csv.lines().any(|l| l.starts_with("F0,F0_a,weighted,")),
         "{csv}"
     );
+    // Read back (a restarted spawner's), the statistics write the same CSV.
+    let read = BranchStats::from_csv(net, &csv).unwrap();
+    assert_eq!(read.total(), w.branch_stats().unwrap().total());
+    assert_eq!(read.to_csv(net), csv);
+    // A CSV that does not fit the map is refused, naming the line.
+    let wrong = csv.replacen("F0,F0_a", "F0,nowhere", 1);
+    let err = BranchStats::from_csv(net, &wrong).unwrap_err();
+    assert!(err.contains("nowhere") && err.contains("line "), "{err}");
+    assert!(BranchStats::from_csv(net, "not,a,header\n").is_err());
 }
 
 #[test]

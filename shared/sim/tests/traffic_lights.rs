@@ -94,3 +94,32 @@ fn remote_lights_are_red_until_vouched_for_and_red_again_when_the_vouch_expires(
     run_for(&mut w, left + 0.1);
     assert!(w.lights_stale(), "the green outlived its validity");
 }
+
+#[test]
+fn a_heartbeat_does_not_vouch_for_a_colour_past_its_announced_end() {
+    // A green announced to end at t0+3 whose change never came (lost in a
+    // partition): heartbeats keep the other groups' colours, not this one.
+    let mut w = world(&signalised_road(), WorldConfig::default());
+    w.use_remote_lights();
+    let t0 = w.time();
+    w.set_remote_light("L", LightColor::Green, t0 + 5.0, Some(t0 + 3.0))
+        .unwrap();
+    run_for(&mut w, 2.0);
+    w.extend_remote_lights(w.time() + 1.5);
+    assert!(!w.lights_stale(), "a colour before its end is vouched for");
+    // At t0+4 the vouch (to t0+3.5) has run out, past the colour's end: a
+    // heartbeat now leaves it stale, red.
+    run_for(&mut w, 2.0);
+    assert!(w.lights_stale());
+    w.extend_remote_lights(w.time() + 5.0);
+    assert!(
+        w.lights_stale(),
+        "a heartbeat revived a colour past its end"
+    );
+    let g = w.network().light_group("L").unwrap();
+    assert_eq!(w.lights().state(g).color, LightColor::Red);
+    // The group's state coming again brings it back.
+    w.set_remote_light("L", LightColor::Red, w.time() + 5.0, Some(w.time() + 20.0))
+        .unwrap();
+    assert!(!w.lights_stale());
+}

@@ -10,6 +10,7 @@ mod phases;
 mod red_lights;
 mod regroup;
 mod reservations;
+mod snapshot;
 mod spawning;
 mod squeeze;
 mod step;
@@ -98,6 +99,10 @@ pub enum WorldError {
     OutsideLane { lane: String, s: f64, length: f64 },
     #[error(transparent)]
     SpawnConfig(#[from] SpawnConfigError),
+    #[error("the snapshot is of another map (fingerprint {theirs}, this one's {ours})")]
+    AnotherMap { theirs: String, ours: String },
+    #[error("the road is not empty ({0} vehicles): a snapshot is restored before the first tick")]
+    NotEmpty(usize),
 }
 
 pub struct World {
@@ -408,10 +413,16 @@ impl World {
     }
 
     /// Extends the validity of every remotely controlled light group (the
-    /// lights service's heartbeat).
+    /// lights service's heartbeat) whose colour has not reached its announced
+    /// end: one that has was due to change, and the change has not come (lost
+    /// in a partition, say). A heartbeat must not vouch for a colour the
+    /// group no longer shows: that one runs out and counts as red until the
+    /// group's state comes again.
     pub fn extend_remote_lights(&mut self, valid_until: f64) {
         for g in 0..self.lights.len() {
-            if let LightControl::Remote { color, ends, .. } = self.lights.control(g) {
+            if let LightControl::Remote { color, ends, .. } = self.lights.control(g)
+                && self.time < ends
+            {
                 let control = LightControl::Remote {
                     color,
                     valid_until,
