@@ -49,19 +49,6 @@ fn free_port() -> u16 {
         .port()
 }
 
-fn make_certs(dir: &Path) {
-    let out = Command::new("bash")
-        .arg(deploy().join("secure/make-certs.sh"))
-        .arg(dir)
-        .output()
-        .expect("bash runs");
-    assert!(
-        out.status.success(),
-        "make-certs.sh: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
-
 /// An identity's env file (make-certs.sh) as entries.
 fn identity_env(tls: &Path, identity: &str) -> Env {
     std::fs::read_to_string(tls.join(format!("{identity}.env")))
@@ -77,8 +64,29 @@ fn identity_env(tls: &Path, identity: &str) -> Env {
 const REFUSED_AFTER_MS: u32 = 5_000;
 const LET_IN_WITHIN_MS: u32 = 30_000;
 
-/// deploy/zenoh/secure/service.json5 for `identity` (its password, or
-/// another), dialling the router at `port` and giving up after `timeout_ms`.
+/// deploy/zenoh/secure/service.json5 as `identity` with `password`, its
+/// certificate and key from `certs`, the CA it trusts from `tls`.
+fn service_json5(tls: &Path, certs: &Path, identity: &str, password: &str) -> String {
+    let text = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
+        .unwrap()
+        .replace(
+            "${TRAFFICMESH_TLS_DIR}/ca.pem",
+            &tls.join("ca.pem").display().to_string(),
+        )
+        .replace("${TRAFFICMESH_TLS_DIR}", &certs.display().to_string())
+        .replace("${TRAFFICMESH_IDENTITY}", identity)
+        .replace("${TRAFFICMESH_ZENOH_PASSWORD}", password);
+    assert!(!text.contains("${"), "service.json5 uses another variable");
+    text
+}
+
+/// A session config from `text`, dialling the router at `port` and giving
+/// up after `timeout_ms`.
+fn config_of(text: &str, port: u16, timeout_ms: u32) -> zenoh::Config {
+    with_endpoint(zenoh::Config::from_json5(text).unwrap(), port, timeout_ms)
+}
+
+/// The profile's config for `identity` (its password, or another).
 fn client_config(
     tls: &Path,
     identity: &str,
@@ -86,13 +94,11 @@ fn client_config(
     port: u16,
     timeout_ms: u32,
 ) -> zenoh::Config {
-    let text = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
-        .unwrap()
-        .replace("${TRAFFICMESH_TLS_DIR}", &tls.display().to_string())
-        .replace("${TRAFFICMESH_IDENTITY}", identity)
-        .replace("${TRAFFICMESH_ZENOH_PASSWORD}", password);
-    assert!(!text.contains("${"), "service.json5 uses another variable");
-    with_endpoint(zenoh::Config::from_json5(&text).unwrap(), port, timeout_ms)
+    config_of(
+        &service_json5(tls, tls, identity, password),
+        port,
+        timeout_ms,
+    )
 }
 
 fn with_endpoint(mut config: zenoh::Config, port: u16, timeout_ms: u32) -> zenoh::Config {
@@ -172,7 +178,7 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
         .to_path_buf();
     let dir = tempfile::tempdir().unwrap();
     let tls = dir.path().join("tls");
-    make_certs(&tls);
+    trafficmesh_testkit::make_certs(&tls);
     let (port, http) = (free_port(), free_port());
     let cluster = format!("secure{}", std::process::id());
     let state = dir.path().join("state");
@@ -312,43 +318,26 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
 
         // Strangers: no certificate, a certificate of another CA, a wrong
         // password. Each is refused at the door.
-        let no_cert = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
-            .unwrap()
-            .replace("${TRAFFICMESH_TLS_DIR}", &tls.display().to_string())
+        let observer_text = service_json5(&tls, &tls, "observer", &password("observer"));
+        let no_cert: String = observer_text
             .replace("enable_mtls: true", "enable_mtls: false")
             .lines()
             .filter(|l| !l.contains("connect_private_key") && !l.contains("connect_certificate"))
             .collect::<Vec<_>>()
-            .join("\n")
-            .replace("${TRAFFICMESH_IDENTITY}", "observer")
-            .replace("${TRAFFICMESH_ZENOH_PASSWORD}", &password("observer"));
-        let no_cert = with_endpoint(
-            zenoh::Config::from_json5(&no_cert).unwrap(),
-            port,
-            REFUSED_AFTER_MS,
-        );
+            .join("\n");
         assert!(
-            open(no_cert).await.is_err(),
+            open(config_of(&no_cert, port, REFUSED_AFTER_MS))
+                .await
+                .is_err(),
             "a process without a certificate got in"
         );
         let other = dir.path().join("other-ca");
-        make_certs(&other);
-        let foreign = std::fs::read_to_string(deploy().join("zenoh/secure/service.json5"))
-            .unwrap()
-            .replace(
-                "${TRAFFICMESH_TLS_DIR}/ca.pem",
-                &tls.join("ca.pem").display().to_string(),
-            )
-            .replace("${TRAFFICMESH_TLS_DIR}", &other.display().to_string())
-            .replace("${TRAFFICMESH_IDENTITY}", "observer")
-            .replace("${TRAFFICMESH_ZENOH_PASSWORD}", &password("observer"));
-        let foreign = with_endpoint(
-            zenoh::Config::from_json5(&foreign).unwrap(),
-            port,
-            REFUSED_AFTER_MS,
-        );
+        trafficmesh_testkit::make_certs(&other);
+        let foreign = service_json5(&tls, &other, "observer", &password("observer"));
         assert!(
-            open(foreign).await.is_err(),
+            open(config_of(&foreign, port, REFUSED_AFTER_MS))
+                .await
+                .is_err(),
             "a certificate of another CA got in"
         );
         let wrong = client_config(&tls, "observer", "not-the-password", port, REFUSED_AFTER_MS);

@@ -65,12 +65,16 @@ impl Spawner {
     async fn save_stats_when_due(&self) {
         let csv = {
             let mut saved = self.stats_saved.lock().expect("stats lock");
-            let total = self.state().stats.total();
-            if total == saved.0 || saved.1.elapsed() < STATS_SAVE_INTERVAL {
+            if saved.1.elapsed() < STATS_SAVE_INTERVAL {
+                return;
+            }
+            let state = self.state();
+            let total = state.stats.total();
+            if total == saved.0 {
                 return;
             }
             *saved = (total, std::time::Instant::now());
-            self.state().branch_csv()
+            state.branch_csv()
         };
         let path = self.branch_csv_path.clone();
         let written = tokio::task::spawn_blocking(move || {

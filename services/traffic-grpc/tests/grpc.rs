@@ -178,17 +178,7 @@ fn sigterm_stops_the_service_gracefully() {
 /// `runtime` identity's client certificate.
 fn certificates(dir: &Path) -> PathBuf {
     let certs = dir.join("certs");
-    let script = trafficmesh_testkit::repo_root().join("deploy/secure/make-certs.sh");
-    let out = Command::new("bash")
-        .arg(script)
-        .arg(&certs)
-        .output()
-        .expect("bash runs");
-    assert!(
-        out.status.success(),
-        "make-certs.sh (needs openssl): {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    trafficmesh_testkit::make_certs(&certs);
     certs
 }
 

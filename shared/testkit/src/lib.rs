@@ -217,6 +217,22 @@ pub fn repo_root() -> PathBuf {
         .to_path_buf()
 }
 
+/// A deployment's certificates, keys and passwords in `dir`, made by its own
+/// script (deploy/secure/make-certs.sh; needs openssl), for localhost and
+/// 127.0.0.1 among the router's names.
+pub fn make_certs(dir: &Path) {
+    let out = std::process::Command::new("bash")
+        .arg(repo_root().join("deploy/secure/make-certs.sh"))
+        .arg(dir)
+        .output()
+        .expect("bash runs");
+    assert!(
+        out.status.success(),
+        "make-certs.sh (needs openssl): {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 /// A Python (TRAFFICMESH_PYTHON, else python3) that can `import <module>`.
 /// None, with a notice, when there is none, unless TRAFFICMESH_REQUIRE_PYTHON=1
 /// (CI), which turns the absence into a failure.

@@ -97,13 +97,9 @@ impl World {
                 jammed.push((v.id, i));
                 if timed_out {
                     tracing::debug!(
-                        "jam timeout at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) {:?} for {:?}, front {:.1} m",
+                        "jam timeout at {:.0} s: {} {:?} for {:?}, front {:.1} m",
                         self.time,
-                        v.id,
-                        self.net.lane(v.path[0]).name,
-                        v.s,
-                        v.pose.x,
-                        v.pose.y,
+                        place(&self.net, v),
                         v.yield_phase,
                         v.dominating,
                         v.distance_to_front
@@ -269,13 +265,9 @@ impl World {
         let shown = |v: &Vehicle| is_stuck(v) || holders.contains(&v.id);
         for (i, v) in self.vehicles.iter().enumerate().filter(|(_, v)| shown(v)) {
             tracing::debug!(
-                "stuck at {:.0} s: #{} {} s={:.1} ({:.1}, {:.1}) waited {:.0} s, {:?} {:?} for {:?}, front {:.1} m at {:.1} m/s, light {:?} {:.1} m, zebra {:?}, next {:?}, waits for {}",
+                "stuck at {:.0} s: {} waited {:.0} s, {:?} {:?} for {:?}, front {:.1} m at {:.1} m/s, light {:?} {:.1} m, zebra {:?}, next {:?}, waits for {}",
                 self.time,
-                v.id,
-                self.net.lane(v.path[0]).name,
-                v.s,
-                v.pose.x,
-                v.pose.y,
+                place(&self.net, v),
                 v.trip.wait,
                 v.speed_mode,
                 v.yield_phase,
@@ -313,19 +305,23 @@ fn describe_cycle(
     cycle
         .iter()
         .map(|&i| {
-            let v = &vehicles[i];
             let held = if waits[i].1 { "rule" } else { "body" };
-            format!(
-                "#{} {} s={:.1} ({:.1}, {:.1}) {held}",
-                v.id,
-                net.lane(v.path[0]).name,
-                v.s,
-                v.pose.x,
-                v.pose.y
-            )
+            format!("{} {held}", place(net, &vehicles[i]))
         })
         .collect::<Vec<_>>()
         .join(" -> ")
+}
+
+/// Where a vehicle is, for the debug log: id, lane, place on it, position.
+fn place(net: &LaneNetwork, v: &Vehicle) -> String {
+    format!(
+        "#{} {} s={:.1} ({:.1}, {:.1})",
+        v.id,
+        net.lane(v.path[0]).name,
+        v.s,
+        v.pose.x,
+        v.pose.y
+    )
 }
 
 fn at_red(v: &Vehicle) -> bool {
