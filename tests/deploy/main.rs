@@ -373,73 +373,45 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     let lag = health["services"]["lights"]["lag_s"].as_f64().unwrap();
     assert!(lag.abs() < 5.0, "the lights lag {lag} s behind the stepper");
 
-    // Faults on host 2: its link cut for 3 s and for 15 s (past the 3 s
-    // lease: its sessions are torn down and dialled again), its lights
-    // service frozen (SIGSTOP) for 5 s. During each, host 3 keeps seeing the
-    // stepper with its fail-safe in force (lights no longer vouched for
-    // count as red, crosswalks as blocked); within 5 s of the fault's end
-    // the cluster is healthy again, and the branch statistics saved on host
-    // 2 have lost nothing.
+    // Host 2's link cut for 3 s. Host 3 keeps seeing the stepper, whose
+    // fail-safe is in force (lights no longer vouched for count as red,
+    // crosswalks as blocked); within 5 s of the link's return the stepper
+    // says all is well again.
     let link = format!("{}e2", hosts.prefix);
     let host2 = hosts.name(2);
     let answered = |h: &serde_json::Value| h["services"]["stepper"]["pid"].is_u64();
-    let lights_pid = health["services"]["lights"]["pid"].as_u64().unwrap() as i32;
-    let csv = state.join("traffic_branch_decisions.csv");
-    let decisions = || {
-        std::fs::read_to_string(&csv).map_or(0, |t| {
-            t.lines()
-                .skip(1)
-                .filter_map(|l| l.split(',').nth(3)?.parse::<u64>().ok())
-                .sum::<u64>()
-        })
-    };
-    let faults: [(&str, u64); 3] = [("link cut", 3), ("link cut", 15), ("lights frozen", 5)];
-    for (fault, seconds) in faults {
-        let saved = decisions();
-        let start = |on: bool| match (fault, on) {
-            ("link cut", true) => ip(&["-n", &host2, "link", "set", &link, "down"]),
-            ("link cut", false) => ip(&["-n", &host2, "link", "set", &link, "up"]),
-            (_, true) => unsafe {
-                libc::kill(lights_pid, libc::SIGSTOP);
-            },
-            (_, false) => unsafe {
-                libc::kill(lights_pid, libc::SIGCONT);
-            },
-        };
-        start(true);
-        let began = Instant::now();
-        let mut fail_safe_seen = false;
-        while began.elapsed() < Duration::from_secs(seconds) {
-            let during = status(&mut hosts, "1");
-            fail_safe_seen |= answered(&during)
-                && during["reasons"]
-                    .to_string()
-                    .contains("light states are stale");
+    ip(&["-n", &host2, "link", "set", &link, "down"]);
+    let cut = Instant::now();
+    let mut fail_safe_seen = false;
+    while cut.elapsed() < Duration::from_secs(3) {
+        let during = status(&mut hosts, "1");
+        fail_safe_seen |= answered(&during)
+            && during["reasons"]
+                .to_string()
+                .contains("light states are stale");
+    }
+    ip(&["-n", &host2, "link", "set", &link, "up"]);
+    let back = Instant::now();
+    assert!(
+        fail_safe_seen,
+        "host 3 never saw the stepper's fail-safe during the cut:\n{}",
+        logs()
+    );
+    loop {
+        let health = status(&mut hosts, "1");
+        if answered(&health) && health["degraded"] == false {
+            break;
         }
-        start(false);
-        let back = Instant::now();
         assert!(
-            fail_safe_seen,
-            "{fault} {seconds} s: host 3 never saw the stepper's fail-safe:\n{}",
+            back.elapsed() < Duration::from_secs(5),
+            "not healthy 5 s after the link came back: {health}\n{}",
             logs()
         );
-        loop {
-            let health = status(&mut hosts, "1");
-            if answered(&health) && health["degraded"] == false {
-                break;
-            }
-            assert!(
-                back.elapsed() < Duration::from_secs(5),
-                "{fault} {seconds} s: not healthy 5 s after its end: {health}\n{}",
-                logs()
-            );
-        }
-        eprintln!(
-            "{fault} {seconds} s: healthy again {:.1} s after its end",
-            back.elapsed().as_secs_f64()
-        );
-        assert!(decisions() >= saved, "{fault}: branch statistics lost");
     }
+    eprintln!(
+        "healthy again {:.1} s after the link came back",
+        back.elapsed().as_secs_f64()
+    );
 
     let up = last.rsplit("up: ").next().unwrap();
     let services = PLACEMENT.iter().flat_map(|(_, s)| s.iter());
