@@ -786,6 +786,81 @@ fn vehicles_ego_lights_and_crosswalks_can_be_operated() {
     assert!(blocked["distance"].as_f64().unwrap() > 0.0);
 }
 
+#[test]
+fn light_overrides_survive_a_killed_lights_service() {
+    let cluster = Cluster::start_with_admin("adminlights", "max_vehicles = 5", false);
+    let api = api(&cluster);
+    let file = cluster.dir.path().join("light_overrides.json");
+    let override_light = |group: &str, body: Value| {
+        let r = api.json(
+            "POST",
+            &format!("/api/v1/lights/{group}/override"),
+            TOKEN,
+            &body,
+        );
+        assert_eq!(r.status, 200, "{}", r.body);
+    };
+    override_light("J0_0_EW", json!({"color": "red"}));
+    let program = json!({"green": 7.0, "yellow": 2.0, "red": 9.0, "offset": 0.0});
+    override_light("J0_0_NS", json!({ "program": program }));
+    // On disk once acknowledged: the REST body's shape, one entry a group.
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    let entry = |saved: &Value, group: &str| {
+        saved
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|o| o["group"] == group)
+            .cloned()
+    };
+    assert_eq!(entry(&saved, "J0_0_EW").unwrap()["color"], "red", "{saved}");
+    assert_eq!(
+        entry(&saved, "J0_0_NS").unwrap()["program"],
+        program,
+        "{saved}"
+    );
+
+    let lights_pid = || api.get("/api/v1/status").json()["services"]["lights"]["pid"].as_u64();
+    wait_until("the lights' pid", Duration::from_secs(10), || {
+        lights_pid().is_some()
+    });
+    let pid = lights_pid().unwrap();
+    unsafe { libc::kill(pid as i32, libc::SIGKILL) };
+    wait_until("the lights restarted", Duration::from_secs(30), || {
+        let s = api.get("/api/v1/status").json();
+        let lights = &s["services"]["lights"];
+        lights["alive"] == true && lights["pid"].as_u64().is_some_and(|p| p != pid)
+    });
+    runtime().block_on(async {
+        let resumed = "resumed the overrides of light groups ";
+        assert!(
+            cluster.wait_log(resumed, Duration::from_secs(10)).await,
+            "the restarted lights did not take up the overrides:\n{}",
+            cluster.log()
+        );
+        let log = cluster.log();
+        let line = log.lines().find(|l| l.contains(resumed)).unwrap();
+        assert!(
+            line.contains("J0_0_EW") && line.contains("J0_0_NS"),
+            "{line}"
+        );
+        // The new process answers for the group: still forced red.
+        let bus = cluster.client().await;
+        let key = bus.keys().key_at(&topics::LIGHT_STATE, "J0_0_EW");
+        let state: trafficmesh_protocol::wire::LightState = ask(&bus, &key, &()).await;
+        assert!(
+            state.forced && state.color == trafficmesh_model::LightColor::Red,
+            "{state:?}"
+        );
+    });
+
+    // Back to the map's program: gone from the file, the other one kept.
+    override_light("J0_0_EW", json!({}));
+    let saved: Value = serde_json::from_str(&std::fs::read_to_string(&file).unwrap()).unwrap();
+    assert!(entry(&saved, "J0_0_EW").is_none(), "{saved}");
+    assert!(entry(&saved, "J0_0_NS").is_some(), "{saved}");
+}
+
 /// Debian's `chromium` (TRAFFICMESH_CHROMIUM overrides). Missing: a notice and
 /// a skip, unless TRAFFICMESH_REQUIRE_CHROMIUM=1 (CI) makes it a failure.
 fn chromium() -> Option<String> {

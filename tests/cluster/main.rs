@@ -5,6 +5,7 @@
 #[allow(dead_code)]
 mod support;
 
+mod faults;
 mod flood;
 mod intersection;
 mod lockstep;

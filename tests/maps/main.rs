@@ -8,6 +8,8 @@ mod sim_support;
 #[allow(dead_code)]
 mod support;
 
+mod hostile;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -447,6 +449,71 @@ fn a_sumo_route_file_runs_its_vehicles_along_their_routes_and_out() {
         11,
         "{trips}"
     );
+}
+
+/// Values no real file holds, found by the hostile-input tests: each a
+/// clear error naming the file and what is wrong, at once, where they made
+/// `sim` run out of memory or build for hours.
+#[test]
+fn absurd_values_in_a_route_file_or_a_map_are_refused_at_once() {
+    let Some(net) = shared_map("cross.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let routes = std::fs::read_to_string(repo().join("tests/maps/cross.rou.xml")).unwrap();
+    let sim = |map: &Path, routes: Option<&Path>| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_trafficmesh"));
+        command.args(["sim", "--duration", "5", "--map"]).arg(map);
+        if let Some(routes) = routes {
+            command.arg("--routes").arg(routes);
+        }
+        let out = command.output().unwrap();
+        assert!(!out.status.success(), "accepted");
+        String::from_utf8_lossy(&out.stderr).into_owned()
+    };
+    for (from, to, needle) in [
+        (
+            r#"begin="0""#,
+            r#"begin="-1e308""#,
+            "attribute 'begin': -1e308 is negative",
+        ),
+        (
+            r#"end="60""#,
+            r#"end="1e300""#,
+            "more than the 10000000 vehicles a flow may have (begin 0, end 1e300)",
+        ),
+        (
+            r#"length="4.5""#,
+            r#"length="1e20""#,
+            "vType 'car': length 100000000000000000000 m",
+        ),
+        (
+            r#"<vType id="car""#,
+            r#"<vType id="car" accel="1e300""#,
+            "accel must be a positive number up to 50",
+        ),
+    ] {
+        let file = dir.path().join("absurd.rou.xml");
+        std::fs::write(&file, routes.replacen(from, to, 1)).unwrap();
+        let err = sim(&net, Some(&file));
+        assert!(
+            err.contains("absurd.rou.xml") && err.contains(needle),
+            "{to}: {err}"
+        );
+    }
+    // A lanelet's point put 9,000 km away (a coordinate with digits too many).
+    if let Some(osm) = shared_map("autoware_intersection_lanelet2_map.osm") {
+        let text = std::fs::read_to_string(osm).unwrap();
+        let node = text.find("<node id=\"3006260\"").unwrap();
+        let x = node + text[node..].find("<tag k=\"local_x\" v=\"").unwrap() + 20;
+        let file = dir.path().join("far.osm");
+        std::fs::write(&file, format!("{}9000{}", &text[..x], &text[x..])).unwrap();
+        let err = sim(&file, None);
+        assert!(
+            err.contains("far.osm") && err.contains("a point far out of place?"),
+            "{err}"
+        );
+    }
 }
 
 /// The same demand in the cluster: the spawner takes the route file, and the

@@ -1,7 +1,11 @@
 //! trafficmesh-lights: runs each light group's fixed-time program on the
 //! stepper's clock. Publishes a group's state when it changes, a heartbeat that
-//! keeps every state valid, answers the current states and takes overrides.
+//! keeps every state valid, answers the current states and takes overrides
+//! (kept in a file with `--overrides`, taken up again at start).
 
+mod overrides;
+
+use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::{Arc, Mutex, MutexGuard};
 
@@ -36,6 +40,8 @@ struct Groups {
     time: f64,
     published: Vec<Option<LightColor>>,
     vouch: Vouch,
+    /// Where the overrides in force are kept, when they are.
+    overrides_file: Option<PathBuf>,
 }
 
 impl Groups {
@@ -86,13 +92,40 @@ fn main() -> ExitCode {
             net.light_groups.iter().map(|g| g.name.as_str()),
         )?;
         let map = net.fingerprint();
-        let groups = Groups {
+        let saved = match &args.settings.overrides {
+            Some(path) => overrides::load(path, &net)?,
+            None => Vec::new(),
+        };
+        let mut groups = Groups {
             lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
             time: 0.0,
             published: vec![None; net.light_groups.len()],
             vouch: Vouch::new(args.settings.validity),
             net,
+            overrides_file: args.settings.overrides.clone(),
         };
+        for o in &saved {
+            apply_override(&mut groups, o).map_err(|e| {
+                let path = args.settings.overrides.as_ref().expect("loaded from it");
+                anyhow::anyhow!(
+                    "{}: group '{}': {e}; move the file away to start from the map's programs",
+                    path.display(),
+                    o.group
+                )
+            })?;
+        }
+        if !saved.is_empty() {
+            let names: Vec<&str> = saved.iter().map(|o| o.group.as_str()).collect();
+            tracing::info!(
+                "resumed the overrides of light groups {} from {}",
+                names.join(", "),
+                args.settings
+                    .overrides
+                    .as_ref()
+                    .expect("loaded from it")
+                    .display()
+            );
+        }
         let service = LightsService {
             groups: Mutex::new(groups),
         };
@@ -176,11 +209,29 @@ async fn answer_states(bus: Arc<Bus>, lights: Arc<LightsService>) {
 async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
     let served = bus
         .serve(&topics::LIGHTS_OVERRIDE, |o: LightOverride| {
-            let state = apply_override(&mut lights.groups(), &o);
+            let (state, to_save) = {
+                let mut g = lights.groups();
+                let state = apply_override(&mut g, &o);
+                let to_save = g
+                    .overrides_file
+                    .clone()
+                    .map(|path| (path, overrides::in_force(&g.net, &g.lights)));
+                (state, to_save)
+            };
             let bus = &bus;
             async move {
                 let state = state?;
                 tracing::info!("light group '{}' overridden: {:?}", o.group, state.color);
+                // Saved before the answer: an override acknowledged is one
+                // a restart keeps.
+                if let Some((path, in_force)) = to_save {
+                    let shown = path.display().to_string();
+                    let saved =
+                        tokio::task::spawn_blocking(move || overrides::save(path, &in_force)).await;
+                    if let Ok(Err(e)) = saved {
+                        tracing::warn!("cannot save the light overrides to {shown}: {e:#}");
+                    }
+                }
                 publish(bus, std::slice::from_ref(&state)).await;
                 Ok(state)
             }

@@ -133,20 +133,23 @@ pub fn load_routes(path: &Path, map: &MapFile) -> Result<crate::sumo_routes::Dem
 
 /// As `load_map`, with the warnings of a foreign format's import.
 pub fn import_map(path: &Path) -> Result<Imported, FileError> {
-    let text = read(path)?;
+    import_text(path, &read(path)?)
+}
+
+/// As `import_map`, on the text of the file at `path` (its format from the
+/// name, errors named against it).
+pub fn import_text(path: &Path, text: &str) -> Result<Imported, FileError> {
     let stem = crate::map_stem(path);
     let import_error = |source| FileError::Import {
         path: path.to_owned(),
         source,
     };
     let imported = match crate::MapFormat::of(path) {
-        crate::MapFormat::Sumo => crate::sumo::import(&stem, &text).map_err(import_error)?,
-        crate::MapFormat::Lanelet2 => {
-            crate::lanelet2::import(&stem, &text).map_err(import_error)?
-        }
+        crate::MapFormat::Sumo => crate::sumo::import(&stem, text).map_err(import_error)?,
+        crate::MapFormat::Lanelet2 => crate::lanelet2::import(&stem, text).map_err(import_error)?,
         crate::MapFormat::Native | crate::MapFormat::SumoScenario => {
             return Ok(Imported {
-                map: parse_map(path, &text)?,
+                map: parse_map(path, text)?,
                 warnings: Vec::new(),
             });
         }

@@ -15,8 +15,8 @@ pub mod sumo_routes;
 pub mod sumocfg;
 
 pub use files::{
-    FileError, import_map, load_map, load_routes, load_spawn_config, parse_map, parse_spawn_config,
-    save_spawn_config, write_atomic,
+    FileError, import_map, import_text, load_map, load_routes, load_spawn_config, parse_map,
+    parse_spawn_config, save_spawn_config, write_atomic,
 };
 pub use four_way::{FourWayOptions, four_way_map};
 pub use grid::{GridOptions, grid_map};

@@ -22,6 +22,10 @@ use crate::import::{ImportError, attr, attr_f64, parse_xml};
 const DEFAULT_LENGTH: f64 = 5.0;
 /// SUMO's default flow end when none is given: one day.
 const DEFAULT_FLOW_END: f64 = 86_400.0;
+/// More departures than this from one flow (or more seconds drawn for a
+/// `probability` flow) is a mistake in the file, not demand: SUMO's largest
+/// city scenarios have a few million vehicles in all.
+const MAX_FLOW_DEPARTURES: f64 = 10_000_000.0;
 
 /// The demand and what could not be carried over.
 pub struct Demand {
@@ -678,10 +682,11 @@ fn vehicle_type(doc: &roxmltree::Document, n: Node) -> Result<(String, VehicleKi
             &format!("vType '{id}': length and width must be positive"),
         ));
     }
-    idm.validate()
-        .map_err(|e| ImportError::at(doc, n, &format!("vType '{id}': {e}")))?;
     let mut kind = VehicleKind::sized(&id, length, width);
     kind.idm = Some(idm);
+    if let Some(problem) = kind.problem() {
+        return Err(ImportError::at(doc, n, &format!("vType '{id}': {problem}")));
+    }
     kind.class = n.attribute("vClass").map(str::to_string);
     Ok((id, kind))
 }
@@ -702,8 +707,31 @@ fn departure_times(
         });
     }
     let begin = optional(doc, n, "begin")?.unwrap_or(0.0);
+    if begin < 0.0 {
+        return Err(ImportError::at(
+            doc,
+            n,
+            &format!(
+                "attribute 'begin': {} is negative",
+                n.attribute("begin").unwrap_or_default()
+            ),
+        ));
+    }
     let end = optional(doc, n, "end")?.unwrap_or(DEFAULT_FLOW_END);
     let number = optional(doc, n, "number")?;
+    let too_many = || {
+        let (from, to) = (n.attribute("begin"), n.attribute("end"));
+        ImportError::at(
+            doc,
+            n,
+            &format!(
+                "this flow would depart more than the {MAX_FLOW_DEPARTURES:.0} vehicles a flow \
+                 may have (begin {}, end {})",
+                from.unwrap_or("0"),
+                to.unwrap_or("86400")
+            ),
+        )
+    };
     let period = match (
         optional(doc, n, "vehsPerHour")?,
         optional(doc, n, "period")?,
@@ -715,6 +743,12 @@ fn departure_times(
         _ => None,
     };
     if let Some(period) = period {
+        let count = ((end - begin) / period)
+            .ceil()
+            .min(number.unwrap_or(f64::MAX));
+        if count > MAX_FLOW_DEPARTURES {
+            return Err(too_many());
+        }
         let limit = number.map_or(usize::MAX, |c| c as usize);
         let mut t = begin;
         let mut k = 0;
@@ -724,6 +758,9 @@ fn departure_times(
             t = begin + k as f64 * period;
         }
     } else if let Some(p) = optional(doc, n, "probability")? {
+        if (end - begin) * p > MAX_FLOW_DEPARTURES || end - begin > MAX_FLOW_DEPARTURES {
+            return Err(too_many());
+        }
         let id = attr(doc, n, "id")?;
         let mut rng = SplitMix(mix(0, id, 0));
         let mut t = begin;

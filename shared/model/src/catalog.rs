@@ -36,7 +36,36 @@ pub fn class_allowed(allowed: &[String], class: &str) -> bool {
     allowed.is_empty() || class == IGNORING_CLASS || allowed.iter().any(|a| a == class)
 }
 
+/// The largest road vehicle a kind may describe, metres: beyond a road
+/// train's length or a wide load's width it is a mistake in the file.
+pub const MAX_VEHICLE_LENGTH: f64 = 60.0;
+pub const MAX_VEHICLE_WIDTH: f64 = 6.0;
+
 impl VehicleKind {
+    /// What is wrong with this kind's size or driving parameters, if anything.
+    pub fn problem(&self) -> Option<String> {
+        let size = |v: f64, max: f64| v.is_finite() && v > 0.0 && v <= max;
+        if !size(self.length, MAX_VEHICLE_LENGTH) {
+            return Some(format!(
+                "length {} m is not between 0 and {MAX_VEHICLE_LENGTH} m",
+                self.length
+            ));
+        }
+        if !size(self.width, MAX_VEHICLE_WIDTH) {
+            return Some(format!(
+                "width {} m is not between 0 and {MAX_VEHICLE_WIDTH} m",
+                self.width
+            ));
+        }
+        if !(self.front.is_finite() && self.front >= 0.0 && self.front <= self.length) {
+            return Some(format!(
+                "front {} m is not within the length {} m",
+                self.front, self.length
+            ));
+        }
+        self.idm.as_ref().and_then(|idm| idm.validate().err())
+    }
+
     /// The vehicle class lane permissions are checked against.
     pub fn vehicle_class(&self) -> &str {
         self.class.as_deref().unwrap_or(DEFAULT_VEHICLE_CLASS)

@@ -90,16 +90,18 @@ impl Default for IdmParams {
 impl IdmParams {
     /// Names the first parameter that is not a positive finite number.
     pub fn validate(&self) -> Result<(), String> {
-        for (name, value) in [
-            ("accel", self.accel),
-            ("decel", self.decel),
-            ("min_gap", self.min_gap),
-            ("headway", self.headway),
-            ("max_speed", self.max_speed),
+        // Upper bounds far past any road vehicle's: larger values are
+        // mistakes in the file, and would overflow the model's arithmetic.
+        for (name, value, max) in [
+            ("accel", self.accel, 50.0),
+            ("decel", self.decel, 100.0),
+            ("min_gap", self.min_gap, 100.0),
+            ("headway", self.headway, 60.0),
+            ("max_speed", self.max_speed, 200.0),
         ] {
-            if !(value.is_finite() && value > 0.0) {
+            if !(value.is_finite() && value > 0.0 && value <= max) {
                 return Err(format!(
-                    "driver model: {name} must be a positive number, got {value}"
+                    "driver model: {name} must be a positive number up to {max}, got {value}"
                 ));
             }
         }

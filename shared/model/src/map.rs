@@ -470,6 +470,13 @@ fn positive(v: f64) -> bool {
     v.is_finite() && v > 0.0
 }
 
+/// The longest lane a map may have, metres: longer is a point far out of
+/// place (a coordinate cut short, another projection), not a road.
+pub const MAX_LANE_LENGTH: f64 = 50_000.0;
+/// The widest lane, metres (a Lanelet2 lanelet's width is its borders'
+/// distance: a real map has one 52 m wide).
+pub const MAX_LANE_WIDTH: f64 = 1_000.0;
+
 impl MapFile {
     /// The start-up checklist: every problem, each naming its element and field.
     pub fn validate(&self) -> Result<(), Vec<MapProblem>> {
@@ -494,6 +501,11 @@ impl MapFile {
         self.validate_crosswalks(&mut p);
         self.validate_simulators(&names, &mut p);
         self.validate_intersections(&names, &mut p);
+        for kind in &self.vehicle_kinds {
+            if let Some(problem) = kind.problem() {
+                p.add(format!("vehicle kind '{}'", kind.name), "size", problem);
+            }
+        }
         if p.0.is_empty() { Ok(()) } else { Err(p.0) }
     }
 
@@ -542,13 +554,26 @@ impl MapFile {
                 let length = lane.length();
                 if length < 0.1 {
                     p.add(&el, "waypoints", format!("lane is only {length:.3} m long"));
+                } else if length > MAX_LANE_LENGTH {
+                    p.add(
+                        &el,
+                        "waypoints",
+                        format!(
+                            "lane is {:.0} km long, more than {:.0} km: a point far out of place?",
+                            length / 1000.0,
+                            MAX_LANE_LENGTH / 1000.0
+                        ),
+                    );
                 }
             }
-            if !positive(lane.width) {
+            if !positive(lane.width) || lane.width > MAX_LANE_WIDTH {
                 p.add(
                     &el,
                     "width",
-                    format!("must be a positive number of metres, got {}", lane.width),
+                    format!(
+                        "must be a positive number of metres up to {MAX_LANE_WIDTH}, got {}",
+                        lane.width
+                    ),
                 );
             }
             if !positive(lane.speed_limit) {

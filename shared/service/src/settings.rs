@@ -66,11 +66,20 @@ pub struct LightsSettings {
     /// after that the stepper counts the group red.
     #[arg(long, default_value_t = LightsSettings::default().validity, allow_negative_numbers = true)]
     pub validity: f64,
+    /// Keep the overrides in force in this file (atomically, on every
+    /// change) and take them up again at start: a restarted lights service
+    /// keeps a forced colour or an admin's program. Unset: overrides last
+    /// until the service stops.
+    #[arg(long)]
+    pub overrides: Option<PathBuf>,
 }
 
 impl Default for LightsSettings {
     fn default() -> Self {
-        LightsSettings { validity: 2.0 }
+        LightsSettings {
+            validity: 2.0,
+            overrides: None,
+        }
     }
 }
 
@@ -79,7 +88,11 @@ impl Settings for LightsSettings {
         collect([("validity", positive_seconds(self.validity))])
     }
     fn flags(&self) -> Vec<String> {
-        flag("validity", self.validity).into()
+        let mut flags: Vec<String> = flag("validity", self.validity).into();
+        if let Some(path) = &self.overrides {
+            flags.extend(flag("overrides", path.display()));
+        }
+        flags
     }
 }
 

@@ -177,6 +177,8 @@ seed = {seed}
 spawn_config = "{dir}/traffic_spawn.json"
 branch_csv = "{dir}/traffic_branch_decisions.csv"
 {spawner}
+[lights]
+overrides = "{dir}/light_overrides.json"
 [pedestrians]
 enabled = {pedestrians}
 [restart]
