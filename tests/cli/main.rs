@@ -321,6 +321,57 @@ fn bad_numbers_on_the_command_line_are_rejected() {
     );
 }
 
+/// `bench bus` streams and pings through a router over TCP and over the
+/// secure profile's TLS (certificates from make-certs.sh): every message
+/// sent arrives, and both report their figures. A short run: the figures
+/// themselves are docs/performance.md's.
+#[test]
+fn bench_bus_measures_tcp_and_tls() {
+    let certs = tempfile::tempdir().unwrap();
+    trafficmesh_testkit::make_certs(&certs.path().join("tls"));
+    let tls = certs.path().join("tls");
+    let out = trafficmesh(&[
+        "bench",
+        "bus",
+        "--tls-dir",
+        tls.to_str().unwrap(),
+        "--sizes",
+        "2516",
+        "--seconds",
+        "0.3",
+        "--pings",
+        "50",
+        "--json",
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+    let runs = report["runs"].as_array().unwrap();
+    let transports: Vec<&str> = runs
+        .iter()
+        .map(|r| r["transport"].as_str().unwrap())
+        .collect();
+    assert_eq!(transports, ["tcp", "tls"], "{report}");
+    for run in runs {
+        assert!(
+            run["streams"][0]["messages_per_sec"].as_f64().unwrap() > 100.0,
+            "{run}"
+        );
+        let (p50, p99) = (
+            run["round_trip_p50_us"].as_f64().unwrap(),
+            run["round_trip_p99_us"].as_f64().unwrap(),
+        );
+        assert!(p50 > 0.0 && p50 <= p99, "{run}");
+    }
+    // Without the certificates, a clear error names the missing file.
+    let out = trafficmesh(&["bench", "bus", "--tls-dir", "/nonexistent"]);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("make-certs.sh"));
+}
+
 fn saturation(model: &str) -> Value {
     let out = trafficmesh(&["bench", "saturation", "--model", model, "--json"]);
     assert!(

@@ -1,7 +1,8 @@
-//! deploy/ on three hosts: network namespaces joined by a bridge (addresses
-//! only inside them), each service started from its systemd unit's
-//! ExecStart with deploy/cluster.env and the Zenoh configs of deploy/zenoh,
-//! the router found by name as on real hosts; then one host's link cut. Needs root and iproute2: a
+//! deploy/ on two and on three hosts: network namespaces joined by a bridge
+//! (addresses only inside them), each service started from its systemd
+//! unit's ExecStart with deploy/cluster.env and the Zenoh configs of
+//! deploy/zenoh, the router found by name as on real hosts; on three, then
+//! one host's link cut and its lights frozen. Needs root and iproute2: a
 //! notice and a skip without them, unless TRAFFICMESH_REQUIRE_NETNS=1 (CI).
 
 mod container;
@@ -202,9 +203,12 @@ fn exec_start(service: &str, env: &Env, bin: &Path) -> Vec<String> {
         .collect()
 }
 
-/// Host 1: the router and the stepper; host 2: every other service; host
-/// 3 has a user's `trafficmesh watch` and `trafficmesh status`.
-const PLACEMENT: [(usize, &[&str]); 2] = [
+/// Which services run on which host.
+type Placement<'a> = &'a [(usize, &'a [&'a str])];
+
+/// Three hosts. Host 1: the router and the stepper; host 2: every other
+/// service; host 3 has a user's `trafficmesh watch` and `trafficmesh status`.
+const THREE_HOSTS: Placement = &[
     (1, &["router", "stepper"]),
     (
         2,
@@ -219,6 +223,14 @@ const PLACEMENT: [(usize, &[&str]); 2] = [
     ),
 ];
 
+/// Two hosts. Host 1: the router, the stepper, the crosswalks and the
+/// walkers; host 2: the spawner, the lights, the intersection manager and
+/// the admin, with the user's `watch` and `status`.
+const TWO_HOSTS: Placement = &[
+    (1, &["router", "stepper", "crosswalks", "pedestrians"]),
+    (2, &["spawner", "lights", "intersection", "admin"]),
+];
+
 /// Waits for `child` to exit by itself.
 fn wait_exit(child: &mut Child, timeout: Duration, what: &str, logs: &dyn Fn() -> String) {
     let deadline = Instant::now() + timeout;
@@ -230,9 +242,26 @@ fn wait_exit(child: &mut Child, timeout: Duration, what: &str, logs: &dyn Fn() -
 
 #[test]
 fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_third() {
+    deploy_over(
+        3,
+        THREE_HOSTS,
+        &[("link cut", 3), ("link cut", 15), ("lights frozen", 5)],
+    );
+}
+
+#[test]
+fn a_cluster_over_two_hosts_from_the_deploy_files_runs_and_reports_healthy() {
+    deploy_over(2, TWO_HOSTS, &[]);
+}
+
+/// The cluster over `count` hosts as `placement` puts it, a user's `watch`
+/// and `status` on the last host; then each of `faults` on host 2 (its
+/// link cut, its lights frozen), for so many seconds.
+fn deploy_over(count: usize, placement: Placement, faults: &[(&str, u64)]) {
     if !netns_available() {
         return;
     }
+    let observer = count;
     let bin = PathBuf::from(env!("CARGO_BIN_EXE_trafficmesh"))
         .parent()
         .unwrap()
@@ -275,8 +304,8 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     env.insert("TRAFFICMESH_STATE".into(), state.display().to_string());
     env.insert("PATH".into(), std::env::var("PATH").unwrap_or_default());
 
-    let mut hosts = Hosts::new(3);
-    for (host, services) in PLACEMENT {
+    let mut hosts = Hosts::new(count);
+    for &(host, services) in placement {
         for service in services {
             let command = exec_start(service, &env, &bin);
             let log = dir.path().join(format!("{service}.log"));
@@ -286,7 +315,7 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     let watch_log = dir.path().join("watch.log");
     let mut watch = vec![bin.join("trafficmesh").display().to_string()];
     watch.extend(["watch".into(), "--count".into(), "12".into()]);
-    hosts.spawn(3, "watch", &watch, &env, &watch_log);
+    hosts.spawn(observer, "watch", &watch, &env, &watch_log);
     let logs = || {
         std::fs::read_dir(dir.path())
             .unwrap()
@@ -308,7 +337,11 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
     wait_exit(watcher, Duration::from_secs(60), "watch", &logs);
     let text = std::fs::read_to_string(&watch_log).unwrap();
     let lines: Vec<&str> = text.lines().filter(|l| l.starts_with("t=")).collect();
-    assert!(lines.len() >= 3, "no clock reached host 3:\n{}", logs());
+    assert!(
+        lines.len() >= 3,
+        "no clock reached host {observer}:\n{}",
+        logs()
+    );
     let figure = |line: &str, key: &str| -> f64 {
         line.split_whitespace()
             .find_map(|w| w.strip_prefix(key))
@@ -325,13 +358,13 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
         "no vehicles spawned across hosts:\n{}",
         logs()
     );
-    // `trafficmesh status` from host 3: healthy, every service on its host.
+    // `trafficmesh status` from the observer: healthy, every service on its host.
     let status = |hosts: &mut Hosts, timeout: &str| {
         let log = dir.path().join("status.json");
         let mut command = vec![bin.join("trafficmesh").display().to_string()];
         command.extend(["status".into(), "--json".into(), "--timeout".into()]);
         command.push(timeout.into());
-        hosts.spawn(3, "status", &command, &env, &log);
+        hosts.spawn(observer, "status", &command, &env, &log);
         let child = &mut hosts.children.last_mut().unwrap().1;
         wait_exit(child, Duration::from_secs(20), "status", &|| String::new());
         let text = std::fs::read_to_string(&log).unwrap();
@@ -366,59 +399,86 @@ fn a_cluster_over_three_hosts_from_the_deploy_files_delivers_telemetry_to_a_thir
         }
         assert!(
             asked.elapsed() < Duration::from_secs(20),
-            "the cluster never looked healthy from host 3: {health}\n{}",
+            "the cluster never looked healthy from host {observer}: {health}\n{}",
             logs()
         );
     };
     let lag = health["services"]["lights"]["lag_s"].as_f64().unwrap();
     assert!(lag.abs() < 5.0, "the lights lag {lag} s behind the stepper");
 
-    // Host 2's link cut for 3 s. Host 3 keeps seeing the stepper, whose
-    // fail-safe is in force (lights no longer vouched for count as red,
-    // crosswalks as blocked); within 5 s of the link's return the stepper
-    // says all is well again.
+    // Faults on host 2: its link cut for 3 s and for 15 s (past the 3 s
+    // lease: its sessions are torn down and dialled again), its lights
+    // service frozen (SIGSTOP) for 5 s. During each, the observer keeps seeing the
+    // stepper with its fail-safe in force (lights no longer vouched for
+    // count as red, crosswalks as blocked); within 5 s of the fault's end
+    // the cluster is healthy again, and the branch statistics saved on host
+    // 2 have lost nothing.
     let link = format!("{}e2", hosts.prefix);
     let host2 = hosts.name(2);
     let answered = |h: &serde_json::Value| h["services"]["stepper"]["pid"].is_u64();
-    ip(&["-n", &host2, "link", "set", &link, "down"]);
-    let cut = Instant::now();
-    let mut fail_safe_seen = false;
-    while cut.elapsed() < Duration::from_secs(3) {
-        let during = status(&mut hosts, "1");
-        fail_safe_seen |= answered(&during)
-            && during["reasons"]
-                .to_string()
-                .contains("light states are stale");
-    }
-    ip(&["-n", &host2, "link", "set", &link, "up"]);
-    let back = Instant::now();
-    assert!(
-        fail_safe_seen,
-        "host 3 never saw the stepper's fail-safe during the cut:\n{}",
-        logs()
-    );
-    loop {
-        let health = status(&mut hosts, "1");
-        if answered(&health) && health["degraded"] == false {
-            break;
+    let lights_pid = health["services"]["lights"]["pid"].as_u64().unwrap() as i32;
+    let csv = state.join("traffic_branch_decisions.csv");
+    let decisions = || {
+        std::fs::read_to_string(&csv).map_or(0, |t| {
+            t.lines()
+                .skip(1)
+                .filter_map(|l| l.split(',').nth(3)?.parse::<u64>().ok())
+                .sum::<u64>()
+        })
+    };
+    for &(fault, seconds) in faults {
+        let saved = decisions();
+        let start = |on: bool| match (fault, on) {
+            ("link cut", true) => ip(&["-n", &host2, "link", "set", &link, "down"]),
+            ("link cut", false) => ip(&["-n", &host2, "link", "set", &link, "up"]),
+            (_, true) => unsafe {
+                libc::kill(lights_pid, libc::SIGSTOP);
+            },
+            (_, false) => unsafe {
+                libc::kill(lights_pid, libc::SIGCONT);
+            },
+        };
+        start(true);
+        let began = Instant::now();
+        let mut fail_safe_seen = false;
+        while began.elapsed() < Duration::from_secs(seconds) {
+            let during = status(&mut hosts, "1");
+            fail_safe_seen |= answered(&during)
+                && during["reasons"]
+                    .to_string()
+                    .contains("light states are stale");
         }
+        start(false);
+        let back = Instant::now();
         assert!(
-            back.elapsed() < Duration::from_secs(5),
-            "not healthy 5 s after the link came back: {health}\n{}",
+            fail_safe_seen,
+            "{fault} {seconds} s: the observer never saw the stepper's fail-safe:\n{}",
             logs()
         );
+        loop {
+            let health = status(&mut hosts, "1");
+            if answered(&health) && health["degraded"] == false {
+                break;
+            }
+            assert!(
+                back.elapsed() < Duration::from_secs(5),
+                "{fault} {seconds} s: not healthy 5 s after its end: {health}\n{}",
+                logs()
+            );
+        }
+        eprintln!(
+            "{fault} {seconds} s: healthy again {:.1} s after its end",
+            back.elapsed().as_secs_f64()
+        );
+        assert!(decisions() >= saved, "{fault}: branch statistics lost");
     }
-    eprintln!(
-        "healthy again {:.1} s after the link came back",
-        back.elapsed().as_secs_f64()
-    );
 
     let up = last.rsplit("up: ").next().unwrap();
-    let services = PLACEMENT.iter().flat_map(|(_, s)| s.iter());
+    let services = placement.iter().flat_map(|(_, s)| s.iter());
     for service in services.filter(|&&s| s != "router") {
         assert!(
             up.split(',').any(|s| s == *service),
-            "{service} not alive as seen from host 3: {last}\n{}",
+            "{service} not alive as seen from host {observer}: {last}\n{}",
             logs()
         );
     }

@@ -281,11 +281,17 @@ impl Bus {
         // Every queryable, each reply as it comes: with Zenoh's defaults a
         // wildcard query's replies wait for the slowest one, and those
         // still held when the timeout strikes are lost.
+        // Dropped, not held, where a link stops draining: a query to a host
+        // cut off would otherwise hold a router thread until that host's
+        // session is closed, and enough of them stall the router for every
+        // host (eclipse-zenoh/zenoh#1876). A query lost so is a timeout the
+        // caller already handles.
         let mut get = self
             .session
             .get(key.to_string())
             .target(zenoh::query::QueryTarget::All)
             .consolidation(zenoh::query::ConsolidationMode::None)
+            .congestion_control(CongestionControl::Drop)
             .timeout(timeout);
         if let Some(p) = payload {
             get = get

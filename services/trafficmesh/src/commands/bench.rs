@@ -33,6 +33,9 @@ pub enum BenchCommand {
     /// The traffic service (gRPC): simulate() latency with N concurrent
     /// sessions of 200 actors each, called at 10 Hz as a runtime calls it.
     TrafficService(super::bench_traffic_service::TrafficServiceArgs),
+    /// The bus through a router on loopback: throughput and round trip over
+    /// plain TCP, and over the secure profile's TLS with `--tls-dir`.
+    Bus(super::bench_bus::BusArgs),
 }
 
 #[derive(Args)]
@@ -114,6 +117,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Saturation(a) => return super::bench_saturation::run(a),
         BenchCommand::Intersection(a) => return super::bench_intersection::run_bench(a),
         BenchCommand::TrafficService(a) => return super::bench_traffic_service::run(a),
+        BenchCommand::Bus(a) => return super::bench_bus::run(a),
     };
     if a.size == 0 || a.ticks == 0 {
         bail!("--size and --ticks must be positive");

@@ -3,6 +3,8 @@ pub mod bench;
 #[cfg(feature = "bench")]
 pub mod bench_admin;
 #[cfg(feature = "bench")]
+pub mod bench_bus;
+#[cfg(feature = "bench")]
 pub mod bench_cluster;
 #[cfg(feature = "bench")]
 pub mod bench_intersection;

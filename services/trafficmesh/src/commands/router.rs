@@ -25,7 +25,20 @@ pub struct RouterArgs {
 /// Where a router listens without a config.
 const DEFAULT_LISTEN: &str = "tcp/0.0.0.0:7447";
 
+/// Zenoh's receiving threads in the router (its default is 2): a message for
+/// a host whose link stops draining holds one until that host's session is
+/// closed, and with every one held the close never runs
+/// (eclipse-zenoh/zenoh#1876). `ZENOH_RUNTIME` in the environment wins.
+const ROUTER_RUNTIME: &str = "(rx: (worker_threads: 6))";
+/// The variable Zenoh reads its runtime's thread counts from.
+const ZENOH_RUNTIME_ENV: &str = "ZENOH_RUNTIME";
+
 pub fn run(a: RouterArgs) -> Result<()> {
+    if std::env::var_os(ZENOH_RUNTIME_ENV).is_none() {
+        // SAFETY: before the router starts any thread of its own (the async
+        // runtime below, Zenoh's); nothing else reads the environment now.
+        unsafe { std::env::set_var(ZENOH_RUNTIME_ENV, ROUTER_RUNTIME) };
+    }
     let bus = BusArgs {
         cluster: "trafficmesh".into(),
         zenoh_config: a.zenoh_config.clone(),
