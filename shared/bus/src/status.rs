@@ -129,7 +129,8 @@ fn hostname() -> String {
 pub const REQUIRED_SERVICES: &str = "stepper,spawner,lights,crosswalks";
 
 /// Why a cluster is degraded, one line each: a service of `expected` is not
-/// `alive`, or the stepper (its status `stepper`) drives on a fail-safe
+/// `alive`, the stepper is alive but gave no status (`stepper` None), or it
+/// drives on a fail-safe
 /// (stale light or crosswalk states, no answer from the intersection
 /// service). Empty when healthy. The admin's status and `trafficmesh
 /// status` say the same.
@@ -143,6 +144,14 @@ pub fn degraded_reasons(
         .filter(|s| !alive.contains(*s))
         .map(|s| format!("{s} is not alive"))
         .collect();
+    // Alive but silent: whether its fail-safes are in force is unknown, and
+    // that is no healthy cluster.
+    if stepper.is_none() && alive.contains("stepper") {
+        reasons.push(
+            "the stepper is alive but did not answer for its status: its fail-safes are unknown"
+                .into(),
+        );
+    }
     if let Some(stepper) = stepper {
         for (flag, what) in [
             (
@@ -209,4 +218,41 @@ pub async fn another_map(bus: &Bus, own: u64) -> BusError {
         }
     }
     std::future::pending().await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stepper(flags: serde_json::Value) -> ServiceStatus {
+        ServiceStatus {
+            service: "stepper".into(),
+            details: flags,
+            ..ServiceStatus::default()
+        }
+    }
+
+    #[test]
+    fn a_cluster_is_degraded_by_a_missing_service_a_silent_stepper_or_a_fail_safe() {
+        let expected: Vec<String> = ["stepper", "lights"].map(String::from).to_vec();
+        let all: std::collections::BTreeSet<String> = expected.iter().cloned().collect();
+        let calm = stepper(serde_json::json!({"lights_stale": false}));
+        assert!(degraded_reasons(&expected, &all, Some(&calm)).is_empty());
+
+        let no_lights = ["stepper".to_string()].into_iter().collect();
+        let reasons = degraded_reasons(&expected, &no_lights, Some(&calm));
+        assert_eq!(reasons, ["lights is not alive"]);
+
+        let silent = degraded_reasons(&expected, &all, None);
+        assert_eq!(silent.len(), 1);
+        assert!(silent[0].contains("did not answer"), "{silent:?}");
+
+        let stale = stepper(serde_json::json!({"lights_stale": true}));
+        let reasons = degraded_reasons(&expected, &all, Some(&stale));
+        assert_eq!(reasons.len(), 1);
+        assert!(
+            reasons[0].contains("every light counts as red"),
+            "{reasons:?}"
+        );
+    }
 }

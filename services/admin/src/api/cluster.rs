@@ -56,6 +56,10 @@ pub struct ServiceView {
     pub details: serde_json::Value,
 }
 
+/// How long a service's last status speaks for it: five of its once-a-second
+/// statuses.
+const STATUS_FRESH: std::time::Duration = std::time::Duration::from_secs(5);
+
 /// Which services are alive, whether the cluster is degraded, simulation time,
 /// tick rate, vehicle count and bad-payload counters. Answered from the admin's
 /// view of the bus, without a round trip.
@@ -77,11 +81,13 @@ pub async fn status(State(app): AppState) -> Json<ClusterStatus> {
             details: status.map_or(serde_json::Value::Null, |(s, _)| s.details.clone()),
         });
     }
-    let reasons = trafficmesh_bus::degraded_reasons(
-        &app.expected,
-        &v.alive,
-        v.statuses.get("stepper").map(|(s, _)| s),
-    );
+    // A status older than a few of its seconds says nothing of now.
+    let stepper = v
+        .statuses
+        .get("stepper")
+        .filter(|(_, at)| at.elapsed() < STATUS_FRESH)
+        .map(|(s, _)| s);
+    let reasons = trafficmesh_bus::degraded_reasons(&app.expected, &v.alive, stepper);
     let clock = v.clock.as_ref();
     Json(ClusterStatus {
         cluster: app.bus.keys().cluster().to_string(),
