@@ -1,6 +1,7 @@
 //! `trafficmesh bench bus [--tls-dir DIR]`: what the secure profile's TLS
-//! costs on the bus. A router and two clients in one process on loopback, as
-//! deployed (every message goes client → router → client): a publisher
+//! costs on the bus. A router (`trafficmesh router`, a process of its own,
+//! as deployed) and two clients on loopback, every message client → router
+//! → client: a publisher
 //! streams vehicle-batch-sized messages to a subscriber for a few seconds
 //! (throughput), and a ping that the other client answers times the round
 //! trip (latency). Over plain TCP, and over TLS with mutual authentication
@@ -112,14 +113,18 @@ pub fn run(a: BusArgs) -> Result<()> {
 /// One transport's figures: TCP, or TLS with the certificates in `tls`.
 async fn measure(a: &BusArgs, tls: Option<&Path>) -> Result<Run> {
     let port = trafficmesh_bus::free_loopback_port()?;
+    // The router in a process of its own: in this one, Zenoh's receiving
+    // threads would be the router's and the subscriber's at once, and the
+    // router, blocked on the subscriber's full queue, would hold the very
+    // threads that drain it.
+    let router = Router::start(port, tls)?;
     let open = |config: zenoh::Config| async move {
         zenoh::open(config)
             .await
             .map_err(|e| anyhow!("cannot open a bench session: {e}"))
     };
-    let router = open(config(Role::Router, port, tls)?).await?;
-    let publisher_session = open(config(Role::Client("stepper"), port, tls)?).await?;
-    let subscriber_session = open(config(Role::Client("observer"), port, tls)?).await?;
+    let publisher_session = open(client_config("stepper", port, tls)?).await?;
+    let subscriber_session = open(client_config("observer", port, tls)?).await?;
 
     let mut streams = Vec::new();
     for &bytes in &a.sizes {
@@ -134,64 +139,101 @@ async fn measure(a: &BusArgs, tls: Option<&Path>) -> Result<Run> {
         round_trip_p50_us: at(0.5),
         round_trip_p99_us: at(0.99),
     };
-    for s in [subscriber_session, publisher_session, router] {
+    for s in [subscriber_session, publisher_session] {
         let _ = s.close().await;
     }
+    drop(router);
     Ok(run)
 }
 
-enum Role {
-    Router,
-    /// A client showing this identity's certificate over TLS.
-    Client(&'static str),
+/// `trafficmesh router` on a loopback port, stopped on drop.
+struct Router {
+    child: std::process::Child,
+    config: PathBuf,
 }
 
-fn config(role: Role, port: u16, tls: Option<&Path>) -> Result<zenoh::Config> {
+impl Router {
+    fn start(port: u16, tls: Option<&Path>) -> Result<Router> {
+        let text = match tls {
+            None => format!(
+                r#"{{ mode: "router", listen: {{ endpoints: ["tcp/127.0.0.1:{port}"] }},
+                   scouting: {{ multicast: {{ enabled: false }} }} }}"#
+            ),
+            Some(dir) => {
+                let file = |name: &str| format!("{:?}", dir.join(name).display().to_string());
+                format!(
+                    r#"{{ mode: "router", listen: {{ endpoints: ["tls/localhost:{port}"] }},
+                       scouting: {{ multicast: {{ enabled: false }} }},
+                       transport: {{ link: {{ tls: {{ root_ca_certificate: {}, listen_private_key: {},
+                       listen_certificate: {}, enable_mtls: true }} }} }} }}"#,
+                    file("ca.pem"),
+                    file("router.key"),
+                    file("router.pem")
+                )
+            }
+        };
+        let config = std::env::temp_dir().join(format!(
+            "trafficmesh-bench-bus-{}-{port}.json5",
+            std::process::id()
+        ));
+        std::fs::write(&config, text)
+            .with_context(|| format!("cannot write {}", config.display()))?;
+        let child = std::process::Command::new(std::env::current_exe()?)
+            .arg("router")
+            .arg("--zenoh-config")
+            .arg(&config)
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .context("cannot start `trafficmesh router`")?;
+        let router = Router { child, config };
+        let deadline = Instant::now() + Duration::from_secs(10);
+        while std::net::TcpStream::connect(("127.0.0.1", port)).is_err() {
+            if Instant::now() > deadline {
+                bail!("the bench router did not listen on port {port} within 10 s");
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        Ok(router)
+    }
+}
+
+impl Drop for Router {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let _ = std::fs::remove_file(&self.config);
+    }
+}
+
+/// A client of the bench router, over TLS showing `identity`'s certificate.
+fn client_config(identity: &str, port: u16, tls: Option<&Path>) -> Result<zenoh::Config> {
     let mut c = zenoh::Config::default();
-    let scheme = if tls.is_some() { "tls" } else { "tcp" };
-    let host = if tls.is_some() {
-        "localhost"
-    } else {
-        "127.0.0.1"
+    let endpoint = match tls {
+        Some(_) => format!("[\"tls/localhost:{port}\"]"),
+        None => format!("[\"tcp/127.0.0.1:{port}\"]"),
     };
-    let endpoint = format!("[\"{scheme}/{host}:{port}\"]");
     let mut set = |key: &str, value: String| {
         c.insert_json5(key, &value)
             .map_err(|e| anyhow!("bench config {key}: {e}"))
     };
     set("scouting/multicast/enabled", "false".into())?;
-    match role {
-        Role::Router => {
-            set("mode", "\"router\"".into())?;
-            set("listen/endpoints", endpoint)?;
-        }
-        Role::Client(_) => {
-            set("mode", "\"client\"".into())?;
-            set("connect/endpoints", endpoint)?;
-            set("listen/endpoints", "[]".into())?;
-        }
-    }
+    set("mode", "\"client\"".into())?;
+    set("connect/endpoints", endpoint)?;
+    set("listen/endpoints", "[]".into())?;
     if let Some(dir) = tls {
         let file = |name: &str| format!("{:?}", dir.join(name).display().to_string());
         set("transport/link/tls/root_ca_certificate", file("ca.pem"))?;
         set("transport/link/tls/enable_mtls", "true".into())?;
-        match role {
-            Role::Router => {
-                set("transport/link/tls/listen_private_key", file("router.key"))?;
-                set("transport/link/tls/listen_certificate", file("router.pem"))?;
-            }
-            Role::Client(identity) => {
-                set("transport/link/tls/verify_name_on_connect", "true".into())?;
-                set(
-                    "transport/link/tls/connect_private_key",
-                    file(&format!("{identity}.key")),
-                )?;
-                set(
-                    "transport/link/tls/connect_certificate",
-                    file(&format!("{identity}.pem")),
-                )?;
-            }
-        }
+        set("transport/link/tls/verify_name_on_connect", "true".into())?;
+        set(
+            "transport/link/tls/connect_private_key",
+            file(&format!("{identity}.key")),
+        )?;
+        set(
+            "transport/link/tls/connect_certificate",
+            file(&format!("{identity}.pem")),
+        )?;
     }
     Ok(c)
 }
