@@ -13,21 +13,6 @@ use trafficmesh_protocol::wire::CrosswalkOccupancy;
 
 use crate::support::*;
 
-/// `trafficmesh status --json` of `cluster`, as a user would ask it.
-fn health(cluster: &Cluster) -> Value {
-    let args = [
-        "status".to_string(),
-        "--json".into(),
-        "--timeout".into(),
-        "1".into(),
-        "--cluster".into(),
-        cluster.name.clone(),
-        "--connect".into(),
-        cluster.endpoint.clone(),
-    ];
-    serde_json::from_str(&trafficmesh_cli(&args)).unwrap()
-}
-
 /// Each live service's pid.
 fn pids(health: &Value) -> BTreeMap<String, u64> {
     health["services"]
@@ -63,7 +48,7 @@ fn each_service_killed_in_turn_comes_back_and_nothing_else_falls() {
             .as_u64()
             .unwrap() as usize;
         for victim in ["crosswalks", "pedestrians", "admin"] {
-            let h = tokio::task::block_in_place(|| health(&cluster));
+            let h = tokio::task::block_in_place(|| cluster.health("1"));
             let before = pids(&h);
             for s in [
                 "stepper",
@@ -83,7 +68,7 @@ fn each_service_killed_in_turn_comes_back_and_nothing_else_falls() {
             if victim == "crosswalks" {
                 let deadline = Instant::now() + Duration::from_secs(5);
                 loop {
-                    let h = tokio::task::block_in_place(|| health(&cluster));
+                    let h = tokio::task::block_in_place(|| cluster.health("1"));
                     if h["degraded"] == true
                         && h["reasons"]
                             .to_string()
@@ -109,7 +94,7 @@ fn each_service_killed_in_turn_comes_back_and_nothing_else_falls() {
                 tokio::time::sleep(Duration::from_millis(100)).await;
             };
             let after = loop {
-                let h = tokio::task::block_in_place(|| health(&cluster));
+                let h = tokio::task::block_in_place(|| cluster.health("1"));
                 if h["degraded"] == false && h["services"][victim]["alive"] == true {
                     break h;
                 }

@@ -124,16 +124,7 @@ fn killing_the_intersection_service_stops_entries_and_a_restart_lets_traffic_cro
         // before the entry: 12 s is ample); after that nobody enters, and
         // the heads of the approaches stand at their stop lines.
         let (mut waiting, mut judged) = (0, 0);
-        let status_args = [
-            "status".to_string(),
-            "--json".into(),
-            "--cluster".into(),
-            cluster.name.clone(),
-            "--connect".into(),
-            cluster.endpoint.clone(),
-        ];
-        let health: serde_json::Value =
-            serde_json::from_str(&trafficmesh_cli(&status_args)).unwrap();
+        let health = cluster.health("2");
         assert_eq!(health["degraded"], true, "{health}");
         assert_eq!(health["services"]["stepper"]["alive"], true, "{health}");
         let degraded_seen = health["reasons"].to_string();

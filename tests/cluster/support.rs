@@ -201,6 +201,22 @@ impl Cluster {
         bus
     }
 
+    /// `trafficmesh status --json` of this cluster, as a user would ask it,
+    /// waiting up to `timeout` seconds for the services to answer.
+    pub fn health(&self, timeout: &str) -> serde_json::Value {
+        let args = [
+            "status",
+            "--json",
+            "--timeout",
+            timeout,
+            "--cluster",
+            &self.name,
+            "--connect",
+            &self.endpoint,
+        ];
+        serde_json::from_str(&trafficmesh_cli(&args)).unwrap()
+    }
+
     /// Waits until the log contains `needle`.
     pub async fn wait_log(&self, needle: &str, timeout: Duration) -> bool {
         let deadline = Instant::now() + timeout;

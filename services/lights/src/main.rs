@@ -92,10 +92,6 @@ fn main() -> ExitCode {
             net.light_groups.iter().map(|g| g.name.as_str()),
         )?;
         let map = net.fingerprint();
-        let saved = match &args.settings.overrides {
-            Some(path) => overrides::load(path, &net)?,
-            None => Vec::new(),
-        };
         let mut groups = Groups {
             lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
             time: 0.0,
@@ -104,27 +100,8 @@ fn main() -> ExitCode {
             net,
             overrides_file: args.settings.overrides.clone(),
         };
-        for o in &saved {
-            apply_override(&mut groups, o).map_err(|e| {
-                let path = args.settings.overrides.as_ref().expect("loaded from it");
-                anyhow::anyhow!(
-                    "{}: group '{}': {e}; move the file away to start from the map's programs",
-                    path.display(),
-                    o.group
-                )
-            })?;
-        }
-        if !saved.is_empty() {
-            let names: Vec<&str> = saved.iter().map(|o| o.group.as_str()).collect();
-            tracing::info!(
-                "resumed the overrides of light groups {} from {}",
-                names.join(", "),
-                args.settings
-                    .overrides
-                    .as_ref()
-                    .expect("loaded from it")
-                    .display()
-            );
+        if let Some(path) = &args.settings.overrides {
+            resume_overrides(&mut groups, path)?;
         }
         let service = LightsService {
             groups: Mutex::new(groups),
@@ -240,6 +217,29 @@ async fn take_overrides(bus: Arc<Bus>, lights: Arc<LightsService>) {
     if let Err(e) = served {
         tracing::error!("cannot serve the light overrides: {e}");
     }
+}
+
+/// Takes up the overrides saved in `path` by a lights service before this one.
+fn resume_overrides(g: &mut Groups, path: &std::path::Path) -> Result<()> {
+    let saved = overrides::load(path, &g.net)?;
+    for o in &saved {
+        apply_override(g, o).map_err(|e| {
+            anyhow::anyhow!(
+                "{}: group '{}': {e}; move the file away to start from the map's programs",
+                path.display(),
+                o.group
+            )
+        })?;
+    }
+    if !saved.is_empty() {
+        let names: Vec<&str> = saved.iter().map(|o| o.group.as_str()).collect();
+        tracing::info!(
+            "resumed the overrides of light groups {} from {}",
+            names.join(", "),
+            path.display()
+        );
+    }
+    Ok(())
 }
 
 fn apply_override(g: &mut Groups, o: &LightOverride) -> Result<LightState, String> {

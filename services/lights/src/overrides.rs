@@ -60,12 +60,9 @@ pub fn in_force(net: &LaneNetwork, lights: &Lights) -> Vec<LightOverride> {
 }
 
 /// Writes `overrides` to `path` atomically (a kill mid-write leaves the last
-/// file whole), creating its directory.
+/// file whole).
 pub fn save(path: PathBuf, overrides: &[LightOverride]) -> Result<()> {
     let bytes = serde_json::to_vec_pretty(overrides)?;
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
     trafficmesh_maps::write_atomic(&path, &bytes)?;
     Ok(())
 }

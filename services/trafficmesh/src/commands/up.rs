@@ -88,10 +88,17 @@ pub fn run(a: UpArgs) -> Result<()> {
     check_spawn_config(&mut config, &net, &a.config, map_given)?;
     config.reservation_intersections = !net.reservation_junctions.is_empty();
     trafficmesh_protocol::Keys::new(&config.cluster)?;
-    if let Some(dir) = config.spawner.branch_csv.parent()
-        && !dir.as_os_str().is_empty()
-    {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    // The folders of the files the services keep their state in.
+    let state_files = [
+        Some(&config.spawner.branch_csv),
+        config.lights.overrides.as_ref(),
+        config.stepper.snapshot.as_ref(),
+    ];
+    for dir in state_files.into_iter().flatten().filter_map(|f| f.parent()) {
+        if !dir.as_os_str().is_empty() {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("cannot create {}", dir.display()))?;
+        }
     }
     tokio::runtime::Builder::new_current_thread()
         .enable_all()
