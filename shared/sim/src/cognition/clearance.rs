@@ -126,7 +126,86 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
             nearest = Some((Blocked { travel, by: j }, other.id));
         }
     });
-    nearest.map(|(b, _)| b)
+    let yielded = way_of_the_yielded(snap, i, v, own, &body);
+    match (nearest.map(|(b, _)| b), yielded) {
+        (Some(b), Some(y)) if y.travel < b.travel => Some(y),
+        (None, y) => y,
+        (b, _) => b,
+    }
+}
+
+/// The longest stretch of the way of the vehicle given way to whose ground
+/// the one giving way keeps clear of, metres.
+const YIELDED_WAY: f64 = 20.0;
+/// The way is taken in steps this long, metres (the ground between two
+/// places lies within their hull).
+const YIELDED_STEP: f64 = 2.5;
+
+/// The stretch of the way of `w`, metres from its front, over which its
+/// body is in the junction ahead: from where its front enters to where its
+/// rear leaves (at most [`YIELDED_WAY`] long).
+fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f64, f64)> {
+    let first = w.first_junction_lane?;
+    let to_entry = first.start - w.s;
+    let through: f64 = w.path[first.k..]
+        .iter()
+        .map(|&l| net.lane(l))
+        .take_while(|l| l.intersection)
+        .map(|l| l.length())
+        .sum();
+    let from = to_entry.max(0.0);
+    Some((
+        from,
+        (to_entry + through + w.length).min(from + YIELDED_WAY),
+    ))
+}
+
+/// A vehicle that gives way to a wide one (a truck or bus with little room
+/// in its lane, whose body cuts the inside of its turns) waits clear of the
+/// ground that body will sweep through the junction, not only of where it
+/// is now: else it comes up to its stop line beside the truck standing in
+/// the junction, whose body, swinging round the rest of its turn, then
+/// meets its own, and neither can move. Where it stands in that ground
+/// already, it comes no nearer. (Narrower bodies keep to their lanes, which
+/// the junction's rules keep apart.)
+fn way_of_the_yielded(
+    snap: &Snapshot,
+    i: usize,
+    v: &Vehicle,
+    own: &BodyBox,
+    body: &Shape,
+) -> Option<Blocked> {
+    if !v.yield_phase.is_yielding() || snap.net.lane(v.path[0]).intersection {
+        return None;
+    }
+    let j = snap
+        .junctions
+        .index_of(snap.row[i].junction, v.dominating?)? as usize;
+    let (w, other) = (&snap.vehicles[j], snap.bodies.body(j));
+    if !is_wide(snap.net, w) || (own.z - other.z).abs() > LEVELS_APART {
+        return None;
+    }
+    let sweep = Shape::swept(snap, v, own, own.reach);
+    let mut nearest: Option<f64> = None;
+    let (mut from, way) = junction_stretch(snap.net, w)?;
+    while from < way {
+        let ground = Shape::swept_between(snap, w, other, from, from + YIELDED_STEP);
+        from += YIELDED_STEP;
+        let now = body.gap(&ground);
+        if now > own.swing + MARGIN {
+            continue;
+        }
+        let keep = now.min(MARGIN) - SLACK;
+        if sweep.keeps(&ground, keep) {
+            continue;
+        }
+        let travel = clear_travel(snap, v, own, &ground, keep);
+        nearest = Some(nearest.map_or(travel, |n: f64| n.min(travel)));
+    }
+    nearest.map(|travel| Blocked {
+        travel,
+        by: j as u32,
+    })
 }
 
 /// Whether the whole body drives along one plain lane with room to spare,
@@ -227,27 +306,32 @@ impl Shape {
     /// The body now and `travel` metres on: moved as the chord between its
     /// bumpers moves.
     fn swept(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> Self {
-        let (front, _) = point_on_path(snap.net, v, travel);
-        let (back, _) = point_on_path(snap.net, v, travel - v.length);
-        let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
-        let turn = match (
-            (v.front - v.back).try_normalize(),
-            (front - back).try_normalize(),
-        ) {
-            // The rotation from the chord now to the chord then.
-            (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
-            _ => DVec2::X,
-        };
         let mut points = [DVec2::ZERO; 8];
-        for (k, &c) in own.obb.corners().iter().enumerate() {
-            points[k] = c;
-            points[k + 4] = mid_then + turn.rotate(c - mid_now);
-        }
-        let moved = (mid_then - mid_now).try_normalize().unwrap_or(own.obb.axis);
+        points[..4].copy_from_slice(&own.obb.corners());
+        let (then, axis, mid_then) = placed(snap, v, own, travel);
+        points[4..].copy_from_slice(&then);
+        let moved = mid_then - 0.5 * (v.front + v.back);
+        Self::hull_of(points, own.obb.axis, axis, moved)
+    }
+
+    /// The body `from` and `to` metres on (see [`Shape::swept`]).
+    fn swept_between(snap: &Snapshot, v: &Vehicle, own: &BodyBox, from: f64, to: f64) -> Self {
+        let (first, first_axis, mid_first) = placed(snap, v, own, from);
+        let (then, axis, mid_then) = placed(snap, v, own, to);
+        let mut points = [DVec2::ZERO; 8];
+        points[..4].copy_from_slice(&first);
+        points[4..].copy_from_slice(&then);
+        Self::hull_of(points, first_axis, axis, mid_then - mid_first)
+    }
+
+    /// Two boxes' corners (the first four, the last four), their axes and
+    /// how far the second lies from the first.
+    fn hull_of(points: [DVec2; 8], first_axis: DVec2, axis: DVec2, moved: DVec2) -> Self {
+        let moved = moved.try_normalize().unwrap_or(first_axis);
         Shape {
             points,
             corners: 8,
-            axes: [own.obb.axis, turn.rotate(own.obb.axis), moved],
+            axes: [first_axis, axis, moved],
             axis_count: 3,
         }
     }
@@ -283,6 +367,28 @@ impl Shape {
         self.all_axes(other)
             .any(|axis| self.apart_on(other, axis) >= keep)
     }
+}
+
+/// The corners and axis of the body `travel` metres on along its path, and
+/// the middle of its chord then: moved as the chord between its bumpers
+/// moves.
+fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 4], DVec2, DVec2) {
+    let (front, _) = point_on_path(snap.net, v, travel);
+    let (back, _) = point_on_path(snap.net, v, travel - v.length);
+    let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
+    let turn = match (
+        (v.front - v.back).try_normalize(),
+        (front - back).try_normalize(),
+    ) {
+        // The rotation from the chord now to the chord then.
+        (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
+        _ => DVec2::X,
+    };
+    let corners = own
+        .obb
+        .corners()
+        .map(|c| mid_then + turn.rotate(c - mid_now));
+    (corners, turn.rotate(own.obb.axis), mid_then)
 }
 
 /// The lowest and highest of the points' positions along `axis`.

@@ -312,8 +312,11 @@ impl Search<'_, '_> {
                 let held = w.distance_to_front < to_zone
                     || (w.passability == LightColor::Red && w.distance_to_light < to_zone)
                     || self.waits_at_zone_for_lower_id(w, to_zone)
-                    // Standing for a junction's rule (or holding for one let through).
-                    || (w.yield_phase.is_yielding() && w.speed < super::deadlock::STOPPED_SPEED);
+                    // Standing for a junction's rule (or holding for one let
+                    // through), or yielding to one at a point short of the zone.
+                    || (w.yield_phase.is_yielding()
+                        && (w.speed < super::deadlock::STOPPED_SPEED
+                            || w.signed_distance(w.yield_point) < to_zone));
                 let heads_elsewhere = !w.path.iter().take(3).any(|&l| l == lane);
                 if held || heads_elsewhere {
                     return None;

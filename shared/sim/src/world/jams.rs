@@ -19,7 +19,7 @@ use crate::events::DespawnReason;
 use crate::geometry::boxes_overlap;
 use crate::lane_index::LaneIndex;
 use crate::network::{LaneId, LaneNetwork};
-use crate::vehicle::{LanesBehind, Pose, Vehicle, WayPlace};
+use crate::vehicle::{LanesBehind, Pose, Vehicle, VehicleId, WayPlace};
 
 /// Ticks between looks for jammed vehicles: a timeout is minutes long, and
 /// the look reads every vehicle.
@@ -93,7 +93,8 @@ impl World {
             stuck += u64::from(sample && is_stuck(v));
             let timed_out = timeout > 0.0 && v.trip.wait >= timeout;
             let in_gridlock = gridlocked.contains(&v.id);
-            if (timed_out || in_gridlock) && is_jammed_head(&self.net, &self.index, v) {
+            let jammed_head = timed_out && is_jammed_head(&self.net, &self.index, v);
+            if jammed_head || (in_gridlock && !v.should_despawn) {
                 jammed.push((v.id, i));
                 if timed_out {
                     tracing::debug!(
@@ -175,14 +176,11 @@ impl World {
                         self.vehicles[i].squeeze_until = self.time + squeeze::SQUEEZE_TIME;
                     }
                 }
-                Squeeze::Failed | Squeeze::Pointless => gridlocked.extend(
-                    cycle
-                        .into_iter()
-                        .map(|i| &vehicles[i])
-                        .filter(|v| is_jammed_head(net, &self.index, v))
-                        .map(|v| v.id)
-                        .min(),
-                ),
+                Squeeze::Failed | Squeeze::Pointless => {
+                    let members = cycle.iter().map(|&i| &vehicles[i]);
+                    let is_head = |v: &Vehicle| is_jammed_head(net, &self.index, v);
+                    gridlocked.extend(gridlock_head(members, is_head));
+                }
             }
         }
         self.gridlocked = gridlocked;
@@ -348,6 +346,27 @@ fn is_jammed_head(net: &LaneNetwork, index: &LaneIndex, v: &Vehicle) -> bool {
     head && !at_red(v) && !v.should_despawn
 }
 
+/// The member of a gridlock to move on: of its queue heads the lowest id.
+/// Where none is one (two bodies side by side short of a red light, each in
+/// the other's way, or one whose lane another's body reaches into), the
+/// lowest id of those a body holds nearer than any red light: their bodies
+/// stand in each other's way whatever the light shows, for good unless one
+/// of them moves. A ring every member of which a red light holds first
+/// waits for the lights.
+fn gridlock_head<'a>(
+    members: impl Iterator<Item = &'a Vehicle> + Clone,
+    is_head: impl Fn(&Vehicle) -> bool,
+) -> Option<VehicleId> {
+    let members = members.filter(|v| !v.should_despawn);
+    let held_by_light = |v: &Vehicle| at_red(v) && v.distance_to_light <= v.distance_to_front;
+    members
+        .clone()
+        .filter(|v| is_head(v))
+        .map(|v| v.id)
+        .min()
+        .or_else(|| members.filter(|v| !held_by_light(v)).map(|v| v.id).min())
+}
+
 /// The lanes a jammed vehicle may be moved to, nearest first: the ordinary
 /// (non-junction) lanes of its way ahead that hold its whole body (on a
 /// shorter one it would reach back over lanes it is not known on), each with
@@ -395,4 +414,48 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, place: WayPlace) {
     crate::control::update_pose(net, v, 0.0);
     v.trip.wait = 0.0;
     v.trip.held_by_rule = 0.0;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::{WorldConfig, test_grid_world};
+
+    /// Two vehicles of a grid world standing short of a red light, their
+    /// bodies `to_body` metres ahead and the stop line `to_light`.
+    fn short_of_red(to_body: f64, to_light: f64) -> Vec<Vehicle> {
+        let mut world = test_grid_world(3, WorldConfig::default());
+        while world.vehicles().len() < 2 {
+            world.step();
+        }
+        let mut vehicles = world.vehicles()[..2].to_vec();
+        for v in &mut vehicles {
+            v.light_lane = Some(v.path[0]);
+            v.passability = LightColor::Red;
+            v.distance_to_front = to_body;
+            v.distance_to_light = to_light;
+        }
+        vehicles
+    }
+
+    #[test]
+    fn of_a_gridlock_the_lowest_queue_head_is_moved_on() {
+        let vehicles = short_of_red(0.0, 3.0);
+        let higher = vehicles.iter().map(|v| v.id).max();
+        let chosen = gridlock_head(vehicles.iter(), |v| Some(v.id) == higher);
+        assert_eq!(chosen, higher);
+    }
+
+    #[test]
+    fn bodies_in_each_others_way_short_of_a_red_light_are_a_gridlock_all_the_same() {
+        let vehicles = short_of_red(0.0, 3.0);
+        let lowest = vehicles.iter().map(|v| v.id).min();
+        assert_eq!(gridlock_head(vehicles.iter(), |_| false), lowest);
+    }
+
+    #[test]
+    fn a_ring_held_first_by_red_lights_waits_for_them() {
+        let vehicles = short_of_red(8.0, 3.0);
+        assert_eq!(gridlock_head(vehicles.iter(), |_| false), None);
+    }
 }
