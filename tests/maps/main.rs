@@ -453,7 +453,8 @@ fn a_sumo_route_file_runs_its_vehicles_along_their_routes_and_out() {
 
 /// Values no real file holds, found by the hostile-input tests: each a
 /// clear error naming the file and what is wrong, at once, where they made
-/// `sim` run out of memory or build for hours.
+/// `sim` run out of memory or build for hours. A vehicle or route id given
+/// twice is refused too, as SUMO refuses it.
 #[test]
 fn absurd_values_in_a_route_file_or_a_map_are_refused_at_once() {
     let Some(net) = shared_map("cross.net.xml") else {
@@ -491,6 +492,16 @@ fn absurd_values_in_a_route_file_or_a_map_are_refused_at_once() {
             r#"<vType id="car""#,
             r#"<vType id="car" accel="1e300""#,
             "accel must be a positive number up to 50",
+        ),
+        (
+            r#"<flow id="stream""#,
+            r#"<vehicle id="first" type="car" depart="1" route="west_east"/><flow id="stream""#,
+            "another vehicle with the id 'first' exists",
+        ),
+        (
+            r#"<vehicle id="first""#,
+            r#"<route id="west_east" edges="51o 1i"/><vehicle id="first""#,
+            "another route with the id 'west_east' exists",
         ),
     ] {
         let file = dir.path().join("absurd.rou.xml");

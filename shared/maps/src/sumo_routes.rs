@@ -381,6 +381,9 @@ pub struct DemandBuilder<'m> {
     loads: LaneLoads,
     /// Vehicles whose vType no file read defines, by type.
     undefined_types: std::collections::BTreeMap<String, usize>,
+    /// Ids taken so far in every route file read, by namespace (as SUMO
+    /// keeps them: vehicles and trips share one, flows have their own).
+    ids: std::collections::HashSet<(&'static str, String)>,
 }
 
 impl<'m> DemandBuilder<'m> {
@@ -402,6 +405,7 @@ impl<'m> DemandBuilder<'m> {
             shifted_routes: 0,
             loads: LaneLoads::default(),
             undefined_types: Default::default(),
+            ids: Default::default(),
         }
     }
 
@@ -470,10 +474,15 @@ impl<'m> DemandBuilder<'m> {
             let tag = n.tag_name().name();
             match tag {
                 "route" => {
-                    routes.insert(
-                        attr(doc, n, "id")?,
-                        attr(doc, n, "edges")?.split_whitespace().collect(),
-                    );
+                    let id = attr(doc, n, "id")?;
+                    let edges = attr(doc, n, "edges")?.split_whitespace().collect();
+                    if routes.insert(id, edges).is_some() {
+                        return Err(ImportError::at(
+                            doc,
+                            n,
+                            &format!("another route with the id '{id}' exists"),
+                        ));
+                    }
                     continue;
                 }
                 "vehicle" | "flow" | "trip" => {}
@@ -482,6 +491,17 @@ impl<'m> DemandBuilder<'m> {
                     *self.not_simulated.entry(other.to_string()).or_default() += 1;
                     continue;
                 }
+            }
+            // As SUMO: vehicles and trips share one namespace, flows have
+            // their own (their vehicles are named after them).
+            let id = attr(doc, n, "id")?;
+            let namespace = if tag == "flow" { "flow" } else { "vehicle" };
+            if !self.ids.insert((namespace, id.to_string())) {
+                return Err(ImportError::at(
+                    doc,
+                    n,
+                    &format!("another {namespace} with the id '{id}' exists"),
+                ));
             }
             let stops = n.children().filter(|c| c.has_tag_name("stop")).count();
             if stops > 0 {
@@ -506,7 +526,6 @@ impl<'m> DemandBuilder<'m> {
                 }
                 None => None,
             };
-            let id = attr(doc, n, "id")?;
             let Some(times) = departure_times(doc, n, tag)? else {
                 self.warnings.push(format!(
                     "{tag} '{id}': depart '{}' is not a time; left out",
