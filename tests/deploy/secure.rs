@@ -21,6 +21,17 @@ use tokio_rustls::rustls::{ClientConfig, RootCertStore};
 
 use super::{Env, cluster_env, deploy, exec_start, repo};
 
+/// The services the secure cluster runs besides its router, each with an
+/// identity of its own.
+const SERVICES: [&str; 6] = [
+    "stepper",
+    "spawner",
+    "lights",
+    "crosswalks",
+    "pedestrians",
+    "admin",
+];
+
 /// The processes of the test, stopped on drop.
 #[derive(Default)]
 struct Processes(Vec<Child>);
@@ -245,14 +256,7 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
         "router",
         &["--listen".into(), format!("tls/127.0.0.1:{port}")],
     );
-    for service in [
-        "stepper",
-        "spawner",
-        "lights",
-        "crosswalks",
-        "pedestrians",
-        "admin",
-    ] {
+    for service in SERVICES {
         start(service, &[]);
     }
     let all_logs = || {
@@ -471,14 +475,7 @@ fn the_secure_profile_refuses_strangers_and_keys_an_identity_does_not_own() {
         .filter(|(_, s)| s["alive"] == true)
         .map(|(name, _)| name.as_str())
         .collect();
-    for service in [
-        "stepper",
-        "spawner",
-        "lights",
-        "crosswalks",
-        "pedestrians",
-        "admin",
-    ] {
+    for service in SERVICES {
         assert!(alive.contains(service), "{service} not alive: {health}");
         // Its status answered the query (a reply on its own key), linked
         // to the router.

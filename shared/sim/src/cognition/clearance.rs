@@ -17,6 +17,8 @@
 //! narrow enough for their lane, are not checked (following keeps them
 //! apart), but are bodies the others see.
 
+use std::cell::OnceCell;
+
 use glam::DVec2;
 
 use super::Snapshot;
@@ -74,7 +76,13 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
     let rear = own.obb.centre.dot(own.obb.axis) - own.obb.half_length - BEHIND;
     let body = Shape::body(&own.obb);
     let squeezing = v.is_squeezing(snap.time);
-    let mut sweep: Option<Shape> = None;
+    let mover = Mover {
+        snap,
+        v,
+        own,
+        body: &body,
+        sweep: OnceCell::new(),
+    };
     let mut nearest: Option<(Blocked, u64)> = None;
     snap.bodies.for_each_near(lo - out, hi + out, |j| {
         if j as usize == i {
@@ -101,10 +109,6 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
         } else {
             Shape::body(&other.obb)
         };
-        let now = body.gap(&obstacle);
-        if now > reach_out {
-            return;
-        }
         // The one behind keeps a margin (room for the other's way to swing
         // beyond what a tick's travel shows; none for a body standing
         // still), the one ahead only keeps off.
@@ -115,22 +119,53 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
         } else {
             0.0
         };
-        let keep = now.min(margin) - SLACK;
-        let sweep = sweep.get_or_insert_with(|| Shape::swept(snap, v, own, own.reach));
-        if sweep.keeps(&obstacle, keep) {
+        let Some(travel) = mover.travel_clear_of(&obstacle, margin) else {
             return;
-        }
-        let travel = clear_travel(snap, v, own, &obstacle, keep);
+        };
         let better = nearest.is_none_or(|(b, id)| (travel, other.id) < (b.travel, id));
         if better {
             nearest = Some((Blocked { travel, by: j }, other.id));
         }
     });
-    let yielded = way_of_the_yielded(snap, i, v, own, &body);
-    match (nearest.map(|(b, _)| b), yielded) {
-        (Some(b), Some(y)) if y.travel < b.travel => Some(y),
-        (None, y) => y,
-        (b, _) => b,
+    let yielded = way_of_the_yielded(&mover, i);
+    // A body as near as the way of the one given way to stands for it.
+    [nearest.map(|(b, _)| b), yielded]
+        .into_iter()
+        .flatten()
+        .min_by(|a, b| a.travel.total_cmp(&b.travel))
+}
+
+/// The vehicle whose way is checked: what every obstacle is held against.
+struct Mover<'a, 'b> {
+    snap: &'a Snapshot<'b>,
+    v: &'a Vehicle,
+    own: &'a BodyBox,
+    /// Its body now.
+    body: &'a Shape,
+    /// The ground it sweeps this tick, made when first needed.
+    sweep: OnceCell<Shape>,
+}
+
+impl Mover<'_, '_> {
+    /// How far it may drive keeping `margin` from `obstacle` (or, nearer
+    /// already, coming no nearer); None where that is out of reach or its
+    /// sweep this tick keeps clear.
+    fn travel_clear_of(&self, obstacle: &Shape, margin: f64) -> Option<f64> {
+        let Mover {
+            snap, v, own, body, ..
+        } = *self;
+        let now = body.gap(obstacle);
+        if now > own.swing + MARGIN {
+            return None;
+        }
+        let keep = now.min(margin) - SLACK;
+        let sweep = self
+            .sweep
+            .get_or_init(|| Shape::swept(snap, v, own, own.reach));
+        if sweep.keeps(obstacle, keep) {
+            return None;
+        }
+        Some(clear_travel(snap, v, own, obstacle, keep))
     }
 }
 
@@ -168,13 +203,8 @@ fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f
 /// meets its own, and neither can move. Where it stands in that ground
 /// already, it comes no nearer. (Narrower bodies keep to their lanes, which
 /// the junction's rules keep apart.)
-fn way_of_the_yielded(
-    snap: &Snapshot,
-    i: usize,
-    v: &Vehicle,
-    own: &BodyBox,
-    body: &Shape,
-) -> Option<Blocked> {
+fn way_of_the_yielded(mover: &Mover, i: usize) -> Option<Blocked> {
+    let Mover { snap, v, own, .. } = *mover;
     if !v.yield_phase.is_yielding() || snap.net.lane(v.path[0]).intersection {
         return None;
     }
@@ -185,22 +215,14 @@ fn way_of_the_yielded(
     if !is_wide(snap.net, w) || (own.z - other.z).abs() > LEVELS_APART {
         return None;
     }
-    let sweep = Shape::swept(snap, v, own, own.reach);
-    let mut nearest: Option<f64> = None;
     let (mut from, way) = junction_stretch(snap.net, w)?;
+    let mut nearest: Option<f64> = None;
     while from < way {
         let ground = Shape::swept_between(snap, w, other, from, from + YIELDED_STEP);
         from += YIELDED_STEP;
-        let now = body.gap(&ground);
-        if now > own.swing + MARGIN {
-            continue;
+        if let Some(travel) = mover.travel_clear_of(&ground, MARGIN) {
+            nearest = Some(nearest.map_or(travel, |n| n.min(travel)));
         }
-        let keep = now.min(MARGIN) - SLACK;
-        if sweep.keeps(&ground, keep) {
-            continue;
-        }
-        let travel = clear_travel(snap, v, own, &ground, keep);
-        nearest = Some(nearest.map_or(travel, |n: f64| n.min(travel)));
     }
     nearest.map(|travel| Blocked {
         travel,
