@@ -527,6 +527,46 @@ fn absurd_values_in_a_route_file_or_a_map_are_refused_at_once() {
     }
 }
 
+/// A route file none of whose vehicles can drive its route (cars on
+/// Bologna's bus lane) is refused with why: the vehicles left out and the
+/// reason, said once.
+#[test]
+fn a_route_file_with_no_usable_route_says_why() {
+    let Some(net) = shared_map("bologna_acosta/acosta_buslanes.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let routes = dir.path().join("cars_on_the_bus_lane.rou.xml");
+    std::fs::write(
+        &routes,
+        "<routes>\n  <vType id=\"car\"/>\n  <flow id=\"cars_on_77\" type=\"car\" begin=\"0\" end=\"60\" vehsPerHour=\"600\"><route edges=\"77[0] 53[1][0]\"/></flow>\n</routes>\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_trafficmesh"))
+        .args(["sim", "--duration", "5", "--map"])
+        .arg(&net)
+        .arg("--routes")
+        .arg(&routes)
+        .output()
+        .unwrap();
+    assert!(!out.status.success(), "accepted");
+    let err = String::from_utf8_lossy(&out.stderr);
+    let error = err
+        .lines()
+        .skip_while(|l| !l.starts_with("error:"))
+        .collect::<Vec<_>>()
+        .join("\n");
+    for needle in [
+        "cars_on_the_bus_lane.rou.xml",
+        "no vehicle or flow with a usable route",
+        "on lanes open to their vehicle class",
+        "cars_on_77",
+    ] {
+        assert!(error.contains(needle), "{needle}: {error}");
+    }
+    assert_eq!(error.matches("usable route").count(), 1, "{error}");
+}
+
 /// The same demand in the cluster: the spawner takes the route file, and the
 /// vehicles drive their routes and leave without choosing a branch.
 #[test]
@@ -1016,16 +1056,16 @@ fn run_flows_by_lane(
     what: &str,
 ) -> (u32, u32, World, std::collections::BTreeMap<String, u32>) {
     // Flows whose id begins with "truck" run the random simulator's trucks,
-    // 3.1 m wide: on 3.2 m lanes their bodies cut the inside of turns.
+    // 3.1 m wide: on 3.2 m lanes their bodies cut the inside of turns. Those
+    // beginning with "bus" run SUMO's buses.
     let mut routes = String::from(
-        "<routes>\n  <vType id=\"car\" length=\"4.5\"/>\n  <vType id=\"truck\" length=\"9.2\" width=\"3.1\" vClass=\"truck\"/>\n",
+        "<routes>\n  <vType id=\"car\" length=\"4.5\"/>\n  <vType id=\"truck\" length=\"9.2\" width=\"3.1\" vClass=\"truck\"/>\n  <vType id=\"bus\" vClass=\"bus\"/>\n",
     );
     for (id, edges, per_hour) in flows {
-        let kind = if id.starts_with("truck") {
-            "truck"
-        } else {
-            "car"
-        };
+        let kind = ["truck", "bus"]
+            .into_iter()
+            .find(|kind| id.starts_with(kind))
+            .unwrap_or("car");
         routes += &format!(
             "  <flow id=\"{id}\" type=\"{kind}\" begin=\"0\" end=\"600\" vehsPerHour=\"{per_hour}\"><route edges=\"{edges}\"/></flow>\n"
         );
@@ -1137,6 +1177,68 @@ fn cars_giving_way_to_trucks_turning_through_a_junction_wait_clear_of_their_swin
     ];
     let (inserted, arrived, w) = run_flows(&net, &flows, "trucks turning at junction 30");
     assert_eq!(inserted, 174, "the demand: 40 + 84 + 50");
+    assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
+    assert_eq!(w.wait_stats().jam_resolutions, 0, "{:?}", w.wait_stats());
+}
+
+/// The two-lane roundabout of Bologna's network (its `roundabout` element:
+/// eight junctions a few metres apart) with every entry queued and every stream
+/// going most of the way round: vehicles going on round it enter its next
+/// junction without waiting for room beyond, so the ring never stands still
+/// with each vehicle waiting for the next. Everybody gets through, nobody
+/// overlaps, nobody needs the jam timeout or a gridlock broken.
+#[test]
+fn a_roundabout_with_every_entry_queued_keeps_turning() {
+    let Some(acosta) = shared_map("bologna_acosta/acosta_buslanes.net.xml") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let net = dir.path().join("acosta.net.xml");
+    std::fs::copy(&acosta, &net).unwrap();
+    let ring = "77ab 77bc 77cd 53cd 53[0] 53[1][0] 53[1][1][0] 77[1][0]";
+    let round = |from: &str, into: &str, out: &str| {
+        let ring: Vec<&str> = ring.split(' ').collect();
+        let start = ring.iter().position(|&e| e == into).unwrap();
+        let way: Vec<&str> = (0..ring.len() - 1)
+            .map(|k| ring[(start + k) % ring.len()])
+            .collect();
+        let last = way.iter().position(|&e| e == out).unwrap();
+        format!("{from} {} {}", way[..=last].join(" "), exit_of(out))
+    };
+    fn exit_of(ring_edge: &str) -> &'static str {
+        match ring_edge {
+            "77[1][0]" => "77[1][1]",
+            "77bc" => "21a",
+            "53cd" => "82",
+            "53[0]" => "78[1][1]",
+            _ => unreachable!("no exit after {ring_edge}"),
+        }
+    }
+    let flows = [
+        (
+            "from_56b".to_string(),
+            round("56b", "77bc", "77[1][0]"),
+            500,
+        ),
+        ("from_59".to_string(), round("59", "53cd", "77bc"), 500),
+        (
+            "from_127".to_string(),
+            round("127", "77[1][0]", "53[0]"),
+            500,
+        ),
+        // 77[0] is a bus lane.
+        (
+            "bus_from_77".to_string(),
+            round("77[0]", "53[1][0]", "53cd"),
+            120,
+        ),
+    ];
+    let (inserted, arrived, w) = run_flows(&net, &flows, "the roundabout, every entry queued");
+    assert_eq!(
+        inserted,
+        3 * 84 + 20,
+        "the demand: 500 cars an hour for 600 s from each car entry, 120 buses"
+    );
     assert_eq!(arrived, inserted, "everybody through by {:.0} s", w.time());
     assert_eq!(w.wait_stats().jam_resolutions, 0, "{:?}", w.wait_stats());
 }

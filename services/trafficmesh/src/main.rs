@@ -69,9 +69,22 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e:#}");
+            eprintln!("error: {}", error_chain(&e));
             // Bad arguments and bad files: the same exit code clap uses for usage errors.
             ExitCode::from(2)
         }
     }
+}
+
+/// The error and its causes, each cause once: file errors already quote the
+/// error they wrap.
+fn error_chain(e: &anyhow::Error) -> String {
+    let mut text = e.to_string();
+    for cause in e.chain().skip(1) {
+        let cause = cause.to_string();
+        if !text.contains(&cause) {
+            text = format!("{text}: {cause}");
+        }
+    }
+    text
 }

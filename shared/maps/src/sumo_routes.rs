@@ -613,7 +613,7 @@ impl<'m> DemandBuilder<'m> {
         }
         if !self.unconnected.is_empty() {
             self.warnings.push(format!(
-                "{} vehicle(s) or flow(s) whose edges are not connected lane to lane in the network left out (e.g. {})",
+                "{} vehicle(s) or flow(s) whose edges are not connected lane to lane in the network, on lanes open to their vehicle class, left out (e.g. {})",
                 self.unconnected.len(),
                 self.unconnected.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
             ));
@@ -639,9 +639,14 @@ impl<'m> DemandBuilder<'m> {
                 .push(format!("read but not simulated: {}", list.join(", ")));
         }
         if self.departures.is_empty() {
-            return Err(ImportError::plain(
-                "the route files have no vehicle or flow with a usable route".into(),
-            ));
+            // The warnings say why.
+            return Err(ImportError::plain(format!(
+                "the route files have no vehicle or flow with a usable route{}",
+                self.warnings
+                    .iter()
+                    .map(|w| format!("\n  {w}"))
+                    .collect::<String>()
+            )));
         }
         self.departures.sort_by(|a, b| a.time.total_cmp(&b.time));
         let kinds = self
