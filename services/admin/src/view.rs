@@ -21,6 +21,9 @@ use crate::metrics;
 #[derive(Default)]
 pub struct ViewState {
     pub clock: Option<Clock>,
+    /// The last tick before the newest restart: an older clock still on
+    /// its way is not news.
+    restarted_after: Option<u64>,
     /// The newest vehicle batch as published (binary, see `vehicle_codec`).
     pub batch: Option<ZBytes>,
     /// Bumped on every batch, so the live map sends each one at most once.
@@ -69,6 +72,16 @@ impl ClusterView {
         self.state.write().expect("view lock")
     }
 
+    /// The stepper restarted after `tick`: the road is empty now, whatever
+    /// clock of the old run comes in late.
+    pub fn restarted(&self, tick: u64) {
+        let mut v = self.write();
+        v.restarted_after = Some(tick);
+        if let Some(clock) = v.clock.as_mut() {
+            clock.vehicles = 0;
+        }
+    }
+
     /// Subscribes to everything the view holds; the tasks run until the process ends.
     /// `groups` and `areas` are the map's counts, to know when catching up is done.
     pub async fn follow(
@@ -94,8 +107,13 @@ impl ClusterView {
         tokio::spawn(async move {
             while let Ok(sample) = clock.recv_async().await {
                 if let Some(c) = b.decode::<Clock>(&sample) {
+                    let mut v = view.write();
+                    if v.restarted_after.is_some_and(|t| c.tick <= t) {
+                        continue;
+                    }
+                    v.restarted_after = None;
                     metrics::record_clock(&c);
-                    view.write().clock = Some(c);
+                    v.clock = Some(c);
                 }
             }
         });

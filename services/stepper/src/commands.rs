@@ -147,6 +147,7 @@ pub fn apply(world: &mut World, inputs: &mut InputState, command: Command) -> Re
                     Ok(json(RestartAnswer {
                         disposed,
                         max_vehicles: r.max_vehicles,
+                        after_tick: world.ticks(),
                     }))
                 }
             };

@@ -227,6 +227,7 @@ pub async fn restart(
         .bus
         .call(&topics::SPAWNER_RESTART, &request, app.bus_timeout)
         .await?;
+    app.view.restarted(answer.after_tick);
     Ok(Json(Restarted {
         disposed: answer.disposed,
         max_vehicles: answer.max_vehicles,

@@ -135,4 +135,8 @@ pub struct RestartRequest {
 pub struct RestartAnswer {
     pub disposed: usize,
     pub max_vehicles: usize,
+    /// The last tick before the restart: clocks and batches of this tick or
+    /// earlier show the old run.
+    #[serde(default)]
+    pub after_tick: u64,
 }
