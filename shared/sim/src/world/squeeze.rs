@@ -32,9 +32,6 @@ pub(super) const SQUEEZE_TIME: f64 = GRIDLOCK_PATIENCE;
 /// The speed a vehicle squeezing past keeps under, m/s: a walking pace, at
 /// which the clearance check's sweep of its body holds on the tightest bend.
 pub(super) const SQUEEZE_SPEED: f64 = 1.5;
-/// Patiences after squeezing ended that a ring standing again counts as
-/// one that squeezing failed to free.
-const SQUEEZE_MEMORY: f64 = 3.0;
 /// Lanes of a member's way looked along for road conflicts.
 const SQUEEZE_LANES: usize = 3;
 /// Lanes of a member's way looked along for the exit of the junction ahead
@@ -60,9 +57,7 @@ impl Squeeze {
         if latest > time {
             return Self::UnderWay;
         }
-        // Squeezing moves members up (into the boxes ahead): a ring that
-        // stands again the patience after it ended is the same one.
-        if latest >= time - SQUEEZE_MEMORY * patience {
+        if latest >= time - patience {
             return Self::Failed;
         }
         let beside_its_way = |i: usize| {
