@@ -87,14 +87,10 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         if net.lane(lane).road_conflicts && !search.squeezing {
             best = best.nearer(search.nearer_claimant(ahead, best.distance));
         }
-        // Squeezing out of a gridlock, it may stand in the box for one
-        // squeezing too: in a ring of vehicles each waiting for room beyond
-        // the next junction, nobody ever finds it.
         if k >= 1
             && !on_intersection
             && net.lane(lane).intersection
             && let Some(exit) = exit_blocked_by(snap, v, k)
-            && !(search.squeezing && snap.vehicles[exit as usize].is_squeezing(snap.time))
         {
             best = best.nearer(FrontObstacle {
                 distance: box_entry.min(offset).max(0.0),

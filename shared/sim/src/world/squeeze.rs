@@ -9,15 +9,13 @@ use crate::vehicle::Vehicle;
 /// Where a gridlock stands with squeezing past: its members let past the
 /// bodies beside their ways that road conflicts hold them for (two meeting
 /// on a bend of a narrow two-way street, each judging the other's body too
-/// near to pass), and into junctions whose exits are full (a ring of
-/// vehicles each waiting for room beyond the next junction: moving up
-/// behind each other, those bound out of the ring leave it), at a walking
-/// pace, with the clearance check alone keeping bodies apart, as drivers
-/// inch past each other. Only where that fails is a member moved on.
+/// near to pass), at a walking pace, with the clearance check alone keeping
+/// bodies apart, as drivers inch past each other. Only where that fails is
+/// a member moved on.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) enum Squeeze {
     /// No member waits for a body off its own lane with a road conflict on
-    /// its way ahead, nor for room beyond a junction: nothing to squeeze past.
+    /// its way ahead: nothing to squeeze past.
     Pointless,
     /// Let the members squeeze past from now on.
     Begin,
@@ -34,14 +32,10 @@ pub(super) const SQUEEZE_TIME: f64 = GRIDLOCK_PATIENCE;
 pub(super) const SQUEEZE_SPEED: f64 = 1.5;
 /// Lanes of a member's way looked along for road conflicts.
 const SQUEEZE_LANES: usize = 3;
-/// Lanes of a member's way looked along for the exit of the junction ahead
-/// (its approach, internal lanes, the exit).
-const BOX_LANES: usize = 5;
 
 impl Squeeze {
     /// Squeezing is worth a try where a member waits for a body off its own
-    /// lane (not a queue's leader) with a road conflict on its way ahead, or
-    /// before a junction for one beyond it.
+    /// lane (not a queue's leader) with a road conflict on its way ahead.
     pub(super) fn of(
         net: &LaneNetwork,
         vehicles: &[Vehicle],
@@ -70,22 +64,7 @@ impl Squeeze {
                     .take(SQUEEZE_LANES)
                     .any(|&l| net.lane(l).road_conflicts)
         };
-        // Not yet in a junction, held by one on its way beyond the next.
-        let before_a_full_exit = |i: usize| {
-            let v = &vehicles[i];
-            let held_by = &vehicles[waits[i].0 as usize];
-            !waits[i].1
-                && !net.lane(v.path[0]).intersection
-                && v.path
-                    .iter()
-                    .take(BOX_LANES)
-                    .position(|&l| l == held_by.path[0])
-                    .is_some_and(|k| k >= 2 && net.lane(v.path[k - 1]).intersection)
-        };
-        if cycle
-            .iter()
-            .any(|&i| beside_its_way(i) || before_a_full_exit(i))
-        {
+        if cycle.iter().any(|&i| beside_its_way(i)) {
             Self::Begin
         } else {
             Self::Pointless
