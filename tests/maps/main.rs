@@ -527,6 +527,16 @@ fn absurd_values_in_a_route_file_or_a_map_are_refused_at_once() {
     }
 }
 
+/// Bologna's network copied into a temporary directory, where `run_flows`
+/// writes its route file beside it. None (skipped) without the shared maps.
+fn acosta_copy() -> Option<(tempfile::TempDir, PathBuf)> {
+    let acosta = shared_map("bologna_acosta/acosta_buslanes.net.xml")?;
+    let dir = tempfile::tempdir().unwrap();
+    let net = dir.path().join("acosta.net.xml");
+    std::fs::copy(&acosta, &net).unwrap();
+    Some((dir, net))
+}
+
 /// A route file none of whose vehicles can drive its route (cars on
 /// Bologna's bus lane) is refused with why: the vehicles left out and the
 /// reason, said once.
@@ -1164,12 +1174,9 @@ fn a_left_turn_facing_a_steady_opposing_stream_gets_through() {
 /// needs the jam timeout.
 #[test]
 fn cars_giving_way_to_trucks_turning_through_a_junction_wait_clear_of_their_swing() {
-    let Some(acosta) = shared_map("bologna_acosta/acosta_buslanes.net.xml") else {
+    let Some((_dir, net)) = acosta_copy() else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let net = dir.path().join("acosta.net.xml");
-    std::fs::copy(&acosta, &net).unwrap();
     let flows = [
         ("truck_left".to_string(), "218 36".to_string(), 240),
         ("straight".to_string(), "35 38".to_string(), 500),
@@ -1182,19 +1189,15 @@ fn cars_giving_way_to_trucks_turning_through_a_junction_wait_clear_of_their_swin
 }
 
 /// The two-lane roundabout of Bologna's network (its `roundabout` element:
-/// eight junctions a few metres apart) with every entry queued and every stream
-/// going most of the way round: vehicles going on round it enter its next
-/// junction without waiting for room beyond, so the ring never stands still
-/// with each vehicle waiting for the next. Everybody gets through, nobody
-/// overlaps, nobody needs the jam timeout or a gridlock broken.
+/// eight junctions a few metres apart) with every entry queued and every
+/// stream going most of the way round, buses among them: everybody gets
+/// through, nobody overlaps, nobody needs the jam timeout or a gridlock
+/// broken.
 #[test]
 fn a_roundabout_with_every_entry_queued_keeps_turning() {
-    let Some(acosta) = shared_map("bologna_acosta/acosta_buslanes.net.xml") else {
+    let Some((_dir, net)) = acosta_copy() else {
         return;
     };
-    let dir = tempfile::tempdir().unwrap();
-    let net = dir.path().join("acosta.net.xml");
-    std::fs::copy(&acosta, &net).unwrap();
     let ring = "77ab 77bc 77cd 53cd 53[0] 53[1][0] 53[1][1][0] 77[1][0]";
     let round = |from: &str, into: &str, out: &str| {
         let ring: Vec<&str> = ring.split(' ').collect();
