@@ -694,7 +694,8 @@ fn the_readme_is_short_and_its_commands_and_links_exist() {
 }
 
 /// A cluster.toml in `dir` from the shipped one: `map` and `spawn_config`
-/// as given, the endpoint on `port`, no admin; `extra` appended.
+/// as given, the endpoint on `port`, the gRPC server on a free port, no
+/// admin; `extra` appended.
 fn cluster_toml(dir: &Path, map: &Path, spawn_config: &Path, port: u16, extra: &str) -> PathBuf {
     let shipped = std::fs::read_to_string(repo_file("configs/cluster.toml")).unwrap();
     let mut text = String::new();
@@ -714,6 +715,10 @@ fn cluster_toml(dir: &Path, map: &Path, spawn_config: &Path, port: u16, extra: &
                 format!("branch_csv = \"{}\"", dir.join("branches.csv").display())
             }
             ("[admin]", "enabled") => "enabled = false".into(),
+            // Tests run side by side: each cluster's gRPC server gets a port of its own.
+            ("[traffic_service]", "listen") => {
+                format!("listen = \"127.0.0.1:{}\"", support::free_port())
+            }
             _ => line.to_string(),
         };
         text += &line;
