@@ -27,6 +27,7 @@ mod lane_choice;
 mod lane_index;
 pub mod lights;
 mod lookahead;
+mod loops;
 pub mod motion_check;
 pub mod network;
 mod parallel;

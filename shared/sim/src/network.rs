@@ -51,6 +51,9 @@ pub struct Lane {
     pub vehicle_classes: Vec<String>,
     /// The lanes of the same road beside this one (see [`crate::siblings`]).
     pub siblings: Vec<LaneId>,
+    /// Followed as it leads, this lane never leads anywhere else (see
+    /// [`crate::loops`]).
+    pub in_closed_loop: bool,
 }
 
 /// What holds a vehicle at a lane's stop point (the stop line, else for a
@@ -275,6 +278,7 @@ impl LaneNetwork {
                     road_conflicts: false,
                     vehicle_classes: def.vehicle_classes.clone(),
                     siblings: Vec::new(),
+                    in_closed_loop: false,
                 }
             })
             .collect();
@@ -288,6 +292,10 @@ impl LaneNetwork {
         let siblings = crate::siblings::find(&lanes);
         for (lane, siblings) in lanes.iter_mut().zip(siblings) {
             lane.siblings = siblings;
+        }
+        let in_closed_loop = crate::loops::find(&lanes);
+        for (lane, looped) in lanes.iter_mut().zip(in_closed_loop) {
+            lane.in_closed_loop = looped;
         }
         let junction_count =
             find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);

@@ -495,3 +495,133 @@ fn a_routed_vehicle_keeps_waiting_for_its_gap() {
     assert_eq!(lane_of(&w, id), "a0", "SUMO's routes are kept");
     assert!(v.lane_change.is_some(), "still waiting to move across");
 }
+
+/// A two-lane ring road, anticlockwise round a 200 m square: four sides
+/// ("s0" to "s3", each with lanes `_0` outside and `_1` inside) joined by
+/// quarter circles ("c0" to "c3"). The one way off leaves from the outer
+/// lane at the end of the south side ("exit", then "out"): the inner lane
+/// only ever goes round.
+fn ring_with_an_exit_from_the_outer_lane() -> trafficmesh_model::MapFile {
+    ring_road(true)
+}
+
+/// The ring of [`ring_with_an_exit_from_the_outer_lane`], with or without
+/// its way off.
+fn ring_road(with_exit: bool) -> trafficmesh_model::MapFile {
+    let origin = [[0.0, 0.0], [200.0, 0.0], [200.0, 200.0], [0.0, 200.0]];
+    let along = [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]];
+    let point = |side: usize, t: f64, inward: f64| {
+        let (o, d) = (origin[side], along[side]);
+        // Inward is the direction of travel turned left.
+        [
+            o[0] + d[0] * t - d[1] * inward,
+            o[1] + d[1] * t + d[0] * inward,
+        ]
+    };
+    let mut lanes = Vec::new();
+    for (side, d) in along.iter().enumerate() {
+        let next_side = (side + 1) % 4;
+        for i in 0..2 {
+            let inward = 3.2 * i as f64;
+            let corner = format!("c{side}_{i}");
+            let mut next = vec![corner.as_str()];
+            if with_exit && side == 0 && i == 0 {
+                next.push("exit");
+            }
+            lanes.push(lane(
+                &format!("s{side}_{i}"),
+                &[point(side, 20.0, inward), point(side, 180.0, inward)],
+                &next,
+            ));
+            // A quarter circle about the corner's centre, 20 m in.
+            let centre = point(side, 180.0, 20.0);
+            let radius = 20.0 - inward;
+            let n = [-d[1], d[0]];
+            let arc: Vec<[f64; 2]> = (0..=6)
+                .map(|k| {
+                    let a = std::f64::consts::FRAC_PI_2 * k as f64 / 6.0;
+                    [
+                        centre[0] + radius * (-n[0] * a.cos() + d[0] * a.sin()),
+                        centre[1] + radius * (-n[1] * a.cos() + d[1] * a.sin()),
+                    ]
+                })
+                .collect();
+            let mut c = lane(&corner, &arc, &[&format!("s{next_side}_{i}")]);
+            c["intersection"] = json!(true);
+            c["turn_direction"] = json!("left");
+            lanes.push(c);
+        }
+    }
+    if with_exit {
+        let mut exit = lane("exit", &[[180.0, 0.0], [200.0, 0.0]], &["out"]);
+        exit["intersection"] = json!(true);
+        lanes.push(exit);
+        lanes.push(lane("out", &[[200.0, 0.0], [400.0, 0.0]], &[]));
+    }
+    map(lanes, json!({}))
+}
+
+/// Drivers without a route on the inner lane of a ring that never leads off
+/// it change to the outer lane for the way off the first time they come to
+/// it: each would otherwise take it at one pass in two, and a ring filled
+/// with drivers going round and round stands still.
+#[test]
+fn a_driver_without_a_route_leaves_a_ring_whose_inner_lane_never_leads_off_it() {
+    let m = ring_with_an_exit_from_the_outer_lane();
+    let config = WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            driver_model: trafficmesh_model::DriverModel::Realistic(Default::default()),
+            ..Default::default()
+        },
+        ..WorldConfig::default()
+    };
+    let mut w = world(&m, config);
+    let net = w.network();
+    let looped = |name: &str| net.lane(net.lane_id(name).unwrap()).in_closed_loop;
+    assert!(
+        looped("s2_1") && looped("c3_1"),
+        "the inner lane is a closed loop"
+    );
+    assert!(
+        !looped("s2_0") && !looped("c3_0") && !looped("out"),
+        "the outer lane leads off the ring"
+    );
+    // Without the way off, both lanes go round for ever.
+    let closed = world(&ring_road(false), WorldConfig::default());
+    let net = closed.network();
+    let looped = |name: &str| net.lane(net.lane_id(name).unwrap()).in_closed_loop;
+    assert!(
+        looped("s2_1") && looped("s2_0"),
+        "a closed ring is a closed loop"
+    );
+    let ids: Vec<u64> = ["s1_1", "s2_1", "s3_1"]
+        .iter()
+        .flat_map(|&lane| [30.0, 110.0].map(|s| (lane, s)))
+        .map(|(lane, s)| w.place_vehicle("Taxi", lane, s, 8.0).unwrap())
+        .collect();
+    let mut seen: Vec<Vec<String>> = vec![Vec::new(); ids.len()];
+    let done = run_until(&mut w, 400.0, |w| {
+        assert_no_overlap(w);
+        for (k, &id) in ids.iter().enumerate() {
+            if let Some(v) = w.vehicle(id) {
+                let lane = &w.network().lane(v.path[0]).name;
+                if seen[k].last() != Some(lane) {
+                    seen[k].push(lane.clone());
+                }
+            }
+        }
+        w.vehicles().is_empty()
+    });
+    assert!(done, "every driver leaves the ring: {seen:?}");
+    for (id, lanes) in ids.iter().zip(&seen) {
+        let south = lanes.iter().filter(|l| l.starts_with("s0_")).count();
+        assert!(
+            lanes.ends_with(&["s0_1".into(), "s0_0".into(), "exit".into(), "out".into()]),
+            "vehicle {id} changes to the outer lane on the south side and leaves: {lanes:?}"
+        );
+        assert_eq!(
+            south, 2,
+            "vehicle {id} drove the south side once: {lanes:?}"
+        );
+    }
+}

@@ -16,6 +16,7 @@ const LAYERS: &[(&str, &[&str])] = &[
         &[
             "network",
             "siblings",
+            "loops",
             "conflicts",
             "lights",
             "crosswalk",

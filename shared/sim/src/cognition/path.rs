@@ -122,7 +122,8 @@ const ROOM_TO_CHANGE: f64 = 20.0;
 /// `turns_beside`, a lane that goes on only one way also offers the other
 /// turns of the lanes beside it, taken with a lane change on the way: a
 /// driver without a route is not held to its lane for ever (on a ring road
-/// the inner lane never leads off it).
+/// the inner lane never leads off it; from a closed loop it takes those
+/// turns only).
 pub fn extend_path(
     net: &LaneNetwork,
     policy: &BranchPolicy,
@@ -157,11 +158,20 @@ pub fn extend_path(
     };
     let widened: Vec<LaneId>;
     let options = if turns_beside && options.len() == 1 {
-        widened = options
-            .iter()
-            .copied()
-            .chain(other_turns(net, v, last, options))
-            .collect();
+        let beside = other_turns(net, v, last, options);
+        // Where its own lane only goes round a closed loop, the driver
+        // takes a way off it.
+        let off_the_loop: Vec<LaneId> = if net.lane(options[0]).in_closed_loop {
+            let leads_off = |&&b: &&LaneId| !net.lane(b).in_closed_loop;
+            beside.iter().filter(leads_off).copied().collect()
+        } else {
+            Vec::new()
+        };
+        widened = if off_the_loop.is_empty() {
+            options.iter().copied().chain(beside).collect()
+        } else {
+            off_the_loop
+        };
         &widened
     } else {
         options

@@ -128,6 +128,15 @@ impl World {
                     .find(|&(lane, place)| {
                         self.is_spawnable(kind, lane, &placed) && self.body_fits(i, lane, place)
                     });
+            tracing::debug!(
+                "jam resolved at {:.0} s: {} {}",
+                self.time,
+                place(&self.net, &self.vehicles[i]),
+                target.map_or("taken off".into(), |(lane, _)| format!(
+                    "moved to {}",
+                    self.net.lane(lane).name
+                ))
+            );
             match target {
                 Some((lane, place)) => {
                     let length = self.net.kinds[kind].length;
@@ -310,11 +319,13 @@ fn describe_cycle(
         .join(" -> ")
 }
 
-/// Where a vehicle is, for the debug log: id, lane, place on it, position.
+/// Where a vehicle is, for the debug log: id, kind, lane, place on it,
+/// position.
 fn place(net: &LaneNetwork, v: &Vehicle) -> String {
     format!(
-        "#{} {} s={:.1} ({:.1}, {:.1})",
+        "#{} {} {} s={:.1} ({:.1}, {:.1})",
         v.id,
+        net.kinds[v.kind].name,
         net.lane(v.path[0]).name,
         v.s,
         v.pose.x,
