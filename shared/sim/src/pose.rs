@@ -158,10 +158,7 @@ fn ease_sideways(
     if travelled <= 0.0 {
         return;
     }
-    let residual = side.residual.length();
-    if residual > 0.0 {
-        side.residual *= (1.0 - travelled / ease_length(residual)).max(0.0);
-    }
+    side.residual = residual_after(side.residual, travelled);
     if side.offset == 0.0 && side.angle == 0.0 {
         return;
     }
@@ -200,6 +197,17 @@ fn across_in_place(side: &mut Sideways) -> f64 {
     step
 }
 
+/// What is left of a drawn position's `residual` off the path after
+/// `travelled` metres more.
+pub(crate) fn residual_after(residual: DVec2, travelled: f64) -> DVec2 {
+    let distance = residual.length();
+    if distance > 0.0 && travelled > 0.0 {
+        residual * (1.0 - travelled / ease_length(distance)).max(0.0)
+    } else {
+        residual
+    }
+}
+
 /// Metres over which a drawn position eases `distance` metres back onto the
 /// path: a few centimetres per metre driven.
 fn ease_length(distance: f64) -> f64 {
@@ -208,7 +216,7 @@ fn ease_length(distance: f64) -> f64 {
 
 /// An angle in (-π, π]. Those given here are sums and differences of two
 /// such angles: one turn either way brings them back (no division).
-fn wrap(a: f64) -> f64 {
+pub(crate) fn wrap(a: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     if a > PI {
         a - TAU

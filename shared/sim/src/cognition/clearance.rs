@@ -402,15 +402,41 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
         (v.front - v.back).try_normalize(),
         (front - back).try_normalize(),
     ) {
-        // The rotation from the chord now to the chord then.
-        (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
+        (Some(now), Some(then)) => drawn_turn(v, now, then, travel),
         _ => DVec2::X,
     };
+    // Where it is drawn off its path (see `Sideways::residual`), the body
+    // eases back onto it as it drives.
+    let eased = crate::pose::residual_after(v.sideways.residual, travel) - v.sideways.residual;
     let corners = own
         .obb
         .corners()
-        .map(|c| mid_then + turn.rotate(c - mid_now));
-    (corners, turn.rotate(own.obb.axis), mid_then)
+        .map(|c| mid_then + eased + turn.rotate(c - mid_now));
+    (corners, turn.rotate(own.obb.axis), mid_then + eased)
+}
+
+/// The rotation of the drawn body over `travel` metres, as [`crate::pose`]
+/// draws it: toward the chord then (`then`, from the chord now, `now`), no
+/// faster than a car turns. Mostly the chord's own rotation; a heading that
+/// lags its chord (just out of a sharp turn) turns by more or by less, and
+/// a sweep turned by the chord's alone let the body drawn come a few
+/// millimetres into the one it stopped short of.
+fn drawn_turn(v: &Vehicle, now: DVec2, then: DVec2, travel: f64) -> DVec2 {
+    let chord = then.rotate(DVec2::new(now.x, -now.y));
+    let most = travel.max(0.0) / crate::pose::TURN_RADIUS;
+    // Across a lane change the heading follows the way across, which the
+    // chord's rotation stands for.
+    let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
+    if changing || (v.pose.yaw == v.body_yaw && chord.y.abs() <= most.sin() && chord.x > 0.0) {
+        return chord;
+    }
+    let target = then.y.atan2(then.x);
+    let turn = crate::pose::wrap(target - v.pose.yaw).clamp(-most, most);
+    // Turning less than its chord, the body stays within the chord's sweep.
+    if turn.abs() <= chord.y.atan2(chord.x).abs() {
+        return chord;
+    }
+    DVec2::from_angle(turn)
 }
 
 /// The lowest and highest of the points' positions along `axis`.
