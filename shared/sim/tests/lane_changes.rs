@@ -498,15 +498,9 @@ fn a_routed_vehicle_keeps_waiting_for_its_gap() {
 
 /// A two-lane ring road, anticlockwise round a 200 m square: four sides
 /// ("s0" to "s3", each with lanes `_0` outside and `_1` inside) joined by
-/// quarter circles ("c0" to "c3"). The one way off leaves from the outer
-/// lane at the end of the south side ("exit", then "out"): the inner lane
-/// only ever goes round.
-fn ring_with_an_exit_from_the_outer_lane() -> trafficmesh_model::MapFile {
-    ring_road(true)
-}
-
-/// The ring of [`ring_with_an_exit_from_the_outer_lane`], with or without
-/// its way off.
+/// quarter circles ("c0" to "c3"). `with_exit`: one way off leaves from the
+/// outer lane at the end of the south side ("exit", then "out"), and the
+/// inner lane only ever goes round.
 fn ring_road(with_exit: bool) -> trafficmesh_model::MapFile {
     let origin = [[0.0, 0.0], [200.0, 0.0], [200.0, 200.0], [0.0, 200.0]];
     let along = [[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [0.0, -1.0]];
@@ -567,7 +561,7 @@ fn ring_road(with_exit: bool) -> trafficmesh_model::MapFile {
 /// with drivers going round and round stands still.
 #[test]
 fn a_driver_without_a_route_leaves_a_ring_whose_inner_lane_never_leads_off_it() {
-    let m = ring_with_an_exit_from_the_outer_lane();
+    let m = ring_road(true);
     let config = WorldConfig {
         vehicle: trafficmesh_model::NpcVehicleConfig {
             driver_model: trafficmesh_model::DriverModel::Realistic(Default::default()),

@@ -423,15 +423,16 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
 /// millimetres into the one it stopped short of.
 fn drawn_turn(v: &Vehicle, now: DVec2, then: DVec2, travel: f64) -> DVec2 {
     let chord = then.rotate(DVec2::new(now.x, -now.y));
-    let most = travel.max(0.0) / crate::pose::TURN_RADIUS;
-    // Across a lane change the heading follows the way across, which the
-    // chord's rotation stands for.
+    // A heading on its chord turns with it, or less where the chord turns
+    // faster than a car can; across a lane change it follows the way
+    // across, which the chord's rotation stands for. (Nearly every call:
+    // no trigonometry then.)
     let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
-    if changing || (v.pose.yaw == v.body_yaw && chord.y.abs() <= most.sin() && chord.x > 0.0) {
+    if changing || v.pose.yaw == v.body_yaw {
         return chord;
     }
-    let target = then.y.atan2(then.x);
-    let turn = crate::pose::wrap(target - v.pose.yaw).clamp(-most, most);
+    let most = travel.max(0.0) / crate::pose::TURN_RADIUS;
+    let turn = crate::pose::wrap(then.y.atan2(then.x) - v.pose.yaw).clamp(-most, most);
     // Turning less than its chord, the body stays within the chord's sweep.
     if turn.abs() <= chord.y.atan2(chord.x).abs() {
         return chord;

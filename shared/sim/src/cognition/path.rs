@@ -159,18 +159,13 @@ pub fn extend_path(
     let widened: Vec<LaneId>;
     let options = if turns_beside && options.len() == 1 {
         let beside = other_turns(net, v, last, options);
+        let leads_off = |&b: &LaneId| !net.lane(b).in_closed_loop;
         // Where its own lane only goes round a closed loop, the driver
         // takes a way off it.
-        let off_the_loop: Vec<LaneId> = if net.lane(options[0]).in_closed_loop {
-            let leads_off = |&&b: &&LaneId| !net.lane(b).in_closed_loop;
-            beside.iter().filter(leads_off).copied().collect()
+        widened = if net.lane(options[0]).in_closed_loop && beside.iter().any(leads_off) {
+            beside.into_iter().filter(leads_off).collect()
         } else {
-            Vec::new()
-        };
-        widened = if off_the_loop.is_empty() {
             options.iter().copied().chain(beside).collect()
-        } else {
-            off_the_loop
         };
         &widened
     } else {
