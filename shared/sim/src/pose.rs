@@ -26,6 +26,7 @@ use glam::DVec2;
 
 use crate::network::LaneId;
 use crate::vehicle::{Sideways, Vehicle};
+use crate::visualization::STOPPED_SPEED;
 
 /// The drawn heading turns by at most the distance driven over this, metres:
 /// a little wider than the tightest turn a car makes (4 m at the rear axle).
@@ -53,21 +54,22 @@ const STEP_SLACK: f64 = 0.002;
 /// each tick, metres: under what the motion check counts as a jump at rest.
 const ACROSS_IN_PLACE: f64 = 0.02;
 
-/// Standing with its body still reaching into the lane it left and a
-/// further change pending (a route that crosses two lanes before the
-/// road's end, the first change made where the body stopped): it finishes
-/// the way across where it stands, a little each tick. Else it would keep
-/// that lane's shadow, and with it the next change, for ever: a change
-/// waits until the body is wholly across.
+/// Standing (or creeping up to the lane's end, ever slower) with its body
+/// still reaching into the lane it left and a further change pending (a
+/// route that crosses two lanes before the road's end, the first change
+/// made where the body stopped): it finishes the way across where it
+/// stands, a little each tick. Else it would keep that lane's shadow, and
+/// with it the next change, for ever: a change waits until the body is
+/// wholly across.
 pub fn finishing_across(v: &Vehicle) -> bool {
-    v.shadow.is_some() && v.lane_change.is_some() && v.speed == 0.0
+    v.shadow.is_some() && v.lane_change.is_some() && v.speed < STOPPED_SPEED
 }
 
 /// The pose after the body moved `travelled` metres along its path (0 for a
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     let ends = (v.front_offset, v.length - v.front_offset);
-    let in_place = if travelled <= 0.0 && finishing_across(v) {
+    let in_place = if travelled < ACROSS_IN_PLACE && finishing_across(v) {
         across_in_place(&mut v.sideways)
     } else {
         ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
