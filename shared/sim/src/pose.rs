@@ -123,6 +123,51 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     };
 }
 
+/// The centre and axis a body off any lane change will be drawn with after
+/// driving `travelled` metres on, its chord then running from `back` to
+/// `front`:
+/// what [`draw`] makes of it, the heading turning no faster than a car
+/// toward the chord (about the body's centre) and the origin's step held
+/// to the distance driven. For the clearance check's forecast of a heading
+/// that lags its chord: the body's corners then move otherwise than the
+/// chord's, by up to the step the hold leaves over.
+pub(crate) fn drawn_after(
+    v: &Vehicle,
+    travelled: f64,
+    front: DVec2,
+    back: DVec2,
+) -> (DVec2, DVec2) {
+    let chord = front - back;
+    let length = chord.length();
+    let heading = if length > 1e-6 {
+        chord / length
+    } else {
+        v.heading
+    };
+    let overhang = (0.5 * (v.length - length)).max(0.0);
+    let target = heading.y.atan2(heading.x);
+    let most_turn = travelled.max(0.0) / TURN_RADIUS;
+    let yaw = wrap(v.pose.yaw + wrap(target - v.pose.yaw).clamp(-most_turn, most_turn));
+    let to_centre = v.front_offset - 0.5 * v.length;
+    let pivot = if yaw == target {
+        DVec2::ZERO
+    } else {
+        (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre
+    };
+    let on_path = front - heading * (v.front_offset - overhang);
+    let wanted = on_path + residual_after(v.sideways.residual, travelled) + pivot;
+    let was = DVec2::new(v.pose.x, v.pose.y);
+    let step = wanted - was;
+    let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK;
+    let axle = if step.length() > most {
+        was + step * (most / step.length())
+    } else {
+        wanted
+    };
+    let axis = DVec2::from_angle(yaw);
+    (axle + axis * to_centre, axis)
+}
+
 /// The body has just been placed on the lane beside `from`: it starts the
 /// way across from where it is drawn, and stays a body on `from` while it
 /// reaches into it.

@@ -260,3 +260,63 @@ fn a_wide_body_waits_before_a_junction_whose_way_through_a_standing_body_blocks(
     let through = goes_on_once_clear(&mut w, coming, 120.0, 60.0);
     assert!(through, "it goes on once the body has gone");
 }
+
+/// A road east whose lane turns sharply (135 degrees, in a junction lane)
+/// onto a road heading north-west, and a road running along that one the
+/// other way, 3.5 m off on the side a body's front swings out to there.
+fn sharp_corner_beside_a_road() -> trafficmesh_model::MapFile {
+    let wide = |name: &str, points: &[[f64; 2]], next: &[&str]| {
+        let mut l = lane(name, points, next);
+        l["width"] = json!(3.2);
+        l
+    };
+    let d = std::f64::consts::FRAC_1_SQRT_2;
+    let off = 3.5;
+    map(
+        vec![
+            wide("east", &[[0.0, 0.0], [96.0, 0.0]], &["corner"]),
+            {
+                let mut j = wide(
+                    "corner",
+                    &[[96.0, 0.0], [100.0, 0.0], [100.0 - 4.0 * d, 4.0 * d]],
+                    &["nw"],
+                );
+                j["intersection"] = json!(true);
+                j
+            },
+            wide(
+                "nw",
+                &[[100.0 - 4.0 * d, 4.0 * d], [100.0 - 80.0 * d, 80.0 * d]],
+                &[],
+            ),
+            wide(
+                "beside",
+                &[
+                    [100.0 - 80.0 * d + off * d, 80.0 * d + off * d],
+                    [100.0 + off * d + 20.0 * d, off * d - 20.0 * d],
+                ],
+                &[],
+            ),
+        ],
+        json!({}),
+    )
+}
+
+/// A truck out of a sharp corner is drawn with its heading still catching
+/// up with its way (by up to 42 degrees here), its body swinging across
+/// the road beside: the clearance check forecasts the body where it will
+/// be drawn, not where its chord lies, and whenever the truck coming the
+/// other way arrives, no bodies meet.
+#[test]
+fn a_body_swinging_out_of_a_sharp_corner_is_seen_where_it_will_be_drawn() {
+    for from in (0..50).map(|k| k as f64) {
+        let mut w = world(&sharp_corner_beside_a_road(), WorldConfig::default());
+        w.place_vehicle("Truck_2t", "east", 80.0, 8.0).unwrap();
+        w.place_vehicle("Truck_2t", "beside", from, 12.0).unwrap();
+        let through = run_until(&mut w, 40.0, |w| {
+            assert_no_overlap(w);
+            w.vehicles().is_empty()
+        });
+        assert!(through, "both drive on (from {from} m)");
+    }
+}

@@ -393,16 +393,29 @@ impl Shape {
 
 /// The corners and axis of the body `travel` metres on along its path, and
 /// the middle of its chord then: moved as the chord between its bumpers
-/// moves.
+/// moves, or, where its drawn heading lags the chord (just out of a sharp
+/// turn), as [`crate::pose::draw`] will draw it.
 fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 4], DVec2, DVec2) {
     let (front, _) = point_on_path(snap.net, v, travel);
     let (back, _) = point_on_path(snap.net, v, travel - v.length);
     let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
+    // Across a lane change the body follows the way across, which the
+    // chord's rotation stands for. (Nearly every call: no trigonometry.)
+    let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
+    if !changing && v.pose.yaw != v.body_yaw {
+        let (centre, axis) = crate::pose::drawn_after(v, travel, front, back);
+        let obb = Obb {
+            centre,
+            axis,
+            ..own.obb
+        };
+        return (obb.corners(), axis, mid_then);
+    }
     let turn = match (
         (v.front - v.back).try_normalize(),
         (front - back).try_normalize(),
     ) {
-        (Some(now), Some(then)) => drawn_turn(v, now, then, travel),
+        (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
         _ => DVec2::X,
     };
     // Where it is drawn off its path (see `Sideways::residual`), the body
@@ -413,31 +426,6 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
         .corners()
         .map(|c| mid_then + eased + turn.rotate(c - mid_now));
     (corners, turn.rotate(own.obb.axis), mid_then + eased)
-}
-
-/// The rotation of the drawn body over `travel` metres, as [`crate::pose`]
-/// draws it: toward the chord then (`then`, from the chord now, `now`), no
-/// faster than a car turns. Mostly the chord's own rotation; a heading that
-/// lags its chord (just out of a sharp turn) turns by more or by less, and
-/// a sweep turned by the chord's alone let the body drawn come a few
-/// millimetres into the one it stopped short of.
-fn drawn_turn(v: &Vehicle, now: DVec2, then: DVec2, travel: f64) -> DVec2 {
-    let chord = then.rotate(DVec2::new(now.x, -now.y));
-    // A heading on its chord turns with it, or less where the chord turns
-    // faster than a car can; across a lane change it follows the way
-    // across, which the chord's rotation stands for. (Nearly every call:
-    // no trigonometry then.)
-    let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
-    if changing || v.pose.yaw == v.body_yaw {
-        return chord;
-    }
-    let most = travel.max(0.0) / crate::pose::TURN_RADIUS;
-    let turn = crate::pose::wrap(then.y.atan2(then.x) - v.pose.yaw).clamp(-most, most);
-    // Turning less than its chord, the body stays within the chord's sweep.
-    if turn.abs() <= chord.y.atan2(chord.x).abs() {
-        return chord;
-    }
-    DVec2::from_angle(turn)
 }
 
 /// The lowest and highest of the points' positions along `axis`.
