@@ -87,33 +87,18 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     let yaw = if fresh {
         target
     } else {
-        let most = travelled.max(0.0) / TURN_RADIUS;
-        let turn = wrap(target - v.pose.yaw).clamp(-most, most);
-        wrap(v.pose.yaw + turn)
+        turned_toward(v.pose.yaw, target, travelled)
     };
-    // A heading that lags its chord turns the body about its centre, not its
-    // origin: the front and the rear share the swing off the path. (Nearly
-    // every tick the heading is the chord's: no sines then.)
-    let pivot = if yaw == target {
-        DVec2::ZERO
-    } else {
-        let to_centre = v.front_offset - 0.5 * v.length;
-        (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre
-    };
+    let pivot = pivot(v, target, yaw);
     let side = &mut v.sideways;
     let mut axle = on_path + normal * side.offset + side.residual + pivot;
-    let was = DVec2::new(v.pose.x, v.pose.y);
     if !fresh {
         // What the way's shape asks beyond a car's motion (a gap where an
         // imported lane does not start at the end of the one before, an
         // offset on a bend) is left over, and eased away as it drives on.
-        let step = axle - was;
-        let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK + in_place;
-        if step.length() > most {
-            let drawn = was + step * (most / step.length());
-            side.residual += drawn - axle;
-            axle = drawn;
-        }
+        let drawn = held_step(v.pose, axle, travelled, in_place);
+        side.residual += drawn - axle;
+        axle = drawn;
     }
     v.pose = crate::vehicle::Pose {
         x: axle.x,
@@ -125,12 +110,9 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
 
 /// The centre and axis a body off any lane change will be drawn with after
 /// driving `travelled` metres on, its chord then running from `back` to
-/// `front`:
-/// what [`draw`] makes of it, the heading turning no faster than a car
-/// toward the chord (about the body's centre) and the origin's step held
-/// to the distance driven. For the clearance check's forecast of a heading
-/// that lags its chord: the body's corners then move otherwise than the
-/// chord's, by up to the step the hold leaves over.
+/// `front`: what [`draw`] makes of it. For the clearance check's forecast
+/// of a heading that lags its chord: the body's corners then move
+/// otherwise than the chord's, by up to the step the hold leaves over.
 pub(crate) fn drawn_after(
     v: &Vehicle,
     travelled: f64,
@@ -146,26 +128,45 @@ pub(crate) fn drawn_after(
     };
     let overhang = (0.5 * (v.length - length)).max(0.0);
     let target = heading.y.atan2(heading.x);
-    let most_turn = travelled.max(0.0) / TURN_RADIUS;
-    let yaw = wrap(v.pose.yaw + wrap(target - v.pose.yaw).clamp(-most_turn, most_turn));
-    let to_centre = v.front_offset - 0.5 * v.length;
-    let pivot = if yaw == target {
+    let yaw = turned_toward(v.pose.yaw, target, travelled);
+    let on_path = front - heading * (v.front_offset - overhang);
+    let wanted = on_path + residual_after(v.sideways.residual, travelled) + pivot(v, target, yaw);
+    let axle = held_step(v.pose, wanted, travelled, 0.0);
+    let axis = DVec2::from_angle(yaw);
+    (axle + axis * (v.front_offset - 0.5 * v.length), axis)
+}
+
+/// The heading `yaw` turned toward `target` after `travelled` metres, no
+/// faster than a car turns.
+fn turned_toward(yaw: f64, target: f64, travelled: f64) -> f64 {
+    let most = travelled.max(0.0) / TURN_RADIUS;
+    wrap(yaw + wrap(target - yaw).clamp(-most, most))
+}
+
+/// Where a heading `yaw` lags its chord's `target`, the body turns about
+/// its centre, not its origin: the front and the rear share the swing off
+/// the path. The origin's shift for that. (Nearly every tick the heading
+/// is the chord's: no sines then.)
+fn pivot(v: &Vehicle, target: f64, yaw: f64) -> DVec2 {
+    if yaw == target {
         DVec2::ZERO
     } else {
-        (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * to_centre
-    };
-    let on_path = front - heading * (v.front_offset - overhang);
-    let wanted = on_path + residual_after(v.sideways.residual, travelled) + pivot;
-    let was = DVec2::new(v.pose.x, v.pose.y);
+        (DVec2::from_angle(target) - DVec2::from_angle(yaw)) * (v.front_offset - 0.5 * v.length)
+    }
+}
+
+/// The origin drawn on its way from the pose `was` to `wanted`, moved at
+/// most a little more than the `travelled` metres (and `across` more, a
+/// lane change finished in place).
+fn held_step(was: crate::vehicle::Pose, wanted: DVec2, travelled: f64, across: f64) -> DVec2 {
+    let was = DVec2::new(was.x, was.y);
     let step = wanted - was;
-    let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK;
-    let axle = if step.length() > most {
+    let most = travelled.max(0.0) * (1.0 + STEP_SPARE) + STEP_SLACK + across;
+    if step.length() > most {
         was + step * (most / step.length())
     } else {
         wanted
-    };
-    let axis = DVec2::from_angle(yaw);
-    (axle + axis * to_centre, axis)
+    }
 }
 
 /// The body has just been placed on the lane beside `from`: it starts the
@@ -263,7 +264,7 @@ fn ease_length(distance: f64) -> f64 {
 
 /// An angle in (-π, π]. Those given here are sums and differences of two
 /// such angles: one turn either way brings them back (no division).
-pub(crate) fn wrap(a: f64) -> f64 {
+fn wrap(a: f64) -> f64 {
     use std::f64::consts::{PI, TAU};
     if a > PI {
         a - TAU
