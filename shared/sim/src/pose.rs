@@ -68,13 +68,8 @@ pub fn finishing_across(v: &Vehicle) -> bool {
 /// The pose after the body moved `travelled` metres along its path (0 for a
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
-    let ends = (v.front_offset, v.length - v.front_offset);
-    let in_place = if travelled < ACROSS_IN_PLACE && finishing_across(v) {
-        across_in_place(&mut v.sideways)
-    } else {
-        ease_sideways(&mut v.sideways, v.speed, travelled, v.heading, ends);
-        0.0
-    };
+    let in_place;
+    (v.sideways, in_place) = sideways_after(v, travelled, v.heading);
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
         if front.max(rear) <= v.sideways.reach(v.width) || v.sideways.offset == 0.0 {
@@ -108,11 +103,27 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
     };
 }
 
-/// The centre and axis a body off any lane change will be drawn with after
-/// driving `travelled` metres on, its chord then running from `back` to
-/// `front`: what [`draw`] makes of it. For the clearance check's forecast
-/// of a heading that lags its chord: the body's corners then move
-/// otherwise than the chord's, by up to the step the hold leaves over.
+/// Where the body lies across its path after `travelled` metres more along
+/// it (`along`, the path's direction), and how far a way across finished
+/// in place moved it.
+fn sideways_after(v: &Vehicle, travelled: f64, along: DVec2) -> (Sideways, f64) {
+    let mut side = v.sideways;
+    if travelled < ACROSS_IN_PLACE && finishing_across(v) {
+        let moved = across_in_place(&mut side);
+        return (side, moved);
+    }
+    let ends = (v.front_offset, v.length - v.front_offset);
+    ease_sideways(&mut side, v.speed, travelled, along, ends);
+    (side, 0.0)
+}
+
+/// The centre and axis the body will be drawn with after driving
+/// `travelled` metres on, its chord then running from `back` to `front`:
+/// what [`draw`] makes of it. For the clearance check's forecast of a body
+/// that does not move as its chord does: one whose heading lags the chord
+/// (its corners then move otherwise, by up to the step the hold leaves
+/// over), or one on its way across a lane change (it moves across as it
+/// drives on).
 pub(crate) fn drawn_after(
     v: &Vehicle,
     travelled: f64,
@@ -127,11 +138,12 @@ pub(crate) fn drawn_after(
         v.heading
     };
     let overhang = (0.5 * (v.length - length)).max(0.0);
-    let target = heading.y.atan2(heading.x);
+    let (side, in_place) = sideways_after(v, travelled, heading);
+    let target = wrap(heading.y.atan2(heading.x) + side.angle);
     let yaw = turned_toward(v.pose.yaw, target, travelled);
     let on_path = front - heading * (v.front_offset - overhang);
-    let wanted = on_path + residual_after(v.sideways.residual, travelled) + pivot(v, target, yaw);
-    let axle = held_step(v.pose, wanted, travelled, 0.0);
+    let wanted = on_path + heading.perp() * side.offset + side.residual + pivot(v, target, yaw);
+    let axle = held_step(v.pose, wanted, travelled, in_place);
     let axis = DVec2::from_angle(yaw);
     (axle + axis * (v.front_offset - 0.5 * v.length), axis)
 }

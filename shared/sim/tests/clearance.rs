@@ -320,3 +320,77 @@ fn a_body_swinging_out_of_a_sharp_corner_is_seen_where_it_will_be_drawn() {
         assert!(through, "both drive on (from {from} m)");
     }
 }
+
+/// Three eastbound lanes 3.2 m wide and 3.2 m apart (`a0` the rightmost,
+/// at a queue's creep: 0.05 m/s; the others at 9.5 m/s), each going on
+/// through its own junction lane to its own exit.
+fn three_narrow_lanes() -> trafficmesh_model::MapFile {
+    let y = |k: usize| 3.2 * k as f64;
+    let mut lanes = Vec::new();
+    for k in 0..3 {
+        let mut a = lane(
+            &format!("a{k}"),
+            &[[0.0, y(k)], [300.0, y(k)]],
+            &[&format!("j{k}")],
+        );
+        a["width"] = json!(3.2);
+        a["speed_limit"] = json!(if k == 0 { 0.05 } else { 9.5 });
+        let mut j = lane(
+            &format!("j{k}"),
+            &[[300.0, y(k)], [320.0, y(k)]],
+            &[&format!("x{k}")],
+        );
+        j["intersection"] = json!(true);
+        lanes.extend([
+            a,
+            j,
+            lane(&format!("x{k}"), &[[320.0, y(k)], [500.0, y(k)]], &[]),
+        ]);
+    }
+    map(lanes, json!({}))
+}
+
+/// A truck changing from the left lane to the middle one at speed, its
+/// body angled across the way, comes nearer the right lane with every
+/// metre: beside a truck standing in a queue there (3.08 m wide bodies on
+/// 3.2 m lanes), the clearance check forecasts it moving across as well as
+/// on, and wherever the two meet, the bodies do not.
+#[test]
+fn a_truck_changing_lanes_beside_another_is_seen_moving_across() {
+    for beside in (0..100).map(|k| 15.0 + 0.5 * k as f64) {
+        let mut w = world(
+            &three_narrow_lanes(),
+            WorldConfig {
+                vehicle: trafficmesh_model::NpcVehicleConfig {
+                    speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+                    ..Default::default()
+                },
+                // Ten ticks a second, as SUMO scenarios run: the body moves
+                // across by 10 to 20 cm a tick.
+                dt: 0.1,
+                ..WorldConfig::default()
+            },
+        );
+        w.place_vehicle("Truck_2t", "a0", beside, 0.0).unwrap();
+        let changing = w
+            .place_vehicle_on_route("Truck_2t", &["a2", "j1", "x1"], 12.0, 8.0)
+            .unwrap();
+        let mut lanes = Vec::new();
+        let through = run_until(&mut w, 400.0, |w| {
+            assert_no_overlap(w);
+            if let Some(v) = w.vehicle(changing) {
+                let lane = w.network().lane(v.path[0]).name.clone();
+                if lanes.last() != Some(&lane) {
+                    lanes.push(lane);
+                }
+            }
+            w.vehicles().is_empty()
+        });
+        assert!(through, "both drive on (beside at {beside} m)");
+        // Placed on a2, it changes lanes within the first tick or later.
+        assert!(
+            lanes.ends_with(&["a1".to_string(), "j1".into(), "x1".into()]),
+            "the truck changes lanes: {lanes:?}"
+        );
+    }
+}

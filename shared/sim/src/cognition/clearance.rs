@@ -158,7 +158,9 @@ impl Mover<'_, '_> {
         if now > own.swing + MARGIN {
             return None;
         }
-        let keep = now.min(margin) - SLACK;
+        // Rounding slack on the side of keeping apart: bodies that are apart
+        // stay so by a hair, where a margin of nothing would let them touch.
+        let keep = now.min(margin.max(2.0 * SLACK)) - SLACK;
         let sweep = self
             .sweep
             .get_or_init(|| Shape::swept(snap, v, own, own.reach));
@@ -393,16 +395,21 @@ impl Shape {
 
 /// The corners and axis of the body `travel` metres on along its path, and
 /// the middle of its chord then: moved as the chord between its bumpers
-/// moves, or, where its drawn heading lags the chord (just out of a sharp
-/// turn), as [`crate::pose::draw`] will draw it.
+/// moves, or, on its way across a lane change or where its drawn heading
+/// lags the chord (just out of a sharp turn), as [`crate::pose::draw`] will
+/// draw it.
 fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 4], DVec2, DVec2) {
     let (front, _) = point_on_path(snap.net, v, travel);
     let (back, _) = point_on_path(snap.net, v, travel - v.length);
     let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
-    // Across a lane change the body follows the way across, which the
-    // chord's rotation stands for. (Nearly every call: no trigonometry.)
+    // A wide body on its way across a lane change moves across as it
+    // drives on, toward the lane it heads for: beside the one it left, it
+    // comes nearer the lane on its other side by centimetres a tick (others
+    // have room to spare there). A heading that lags its chord turns as it
+    // drives. Else the body moves with its chord. (Nearly every call: no
+    // trigonometry.)
     let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
-    if !changing && v.pose.yaw != v.body_yaw {
+    if (changing && is_wide(snap.net, v)) || (!changing && v.pose.yaw != v.body_yaw) {
         let (centre, axis) = crate::pose::drawn_after(v, travel, front, back);
         let obb = Obb {
             centre,
