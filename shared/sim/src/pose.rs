@@ -68,8 +68,8 @@ pub fn finishing_across(v: &Vehicle) -> bool {
 /// The pose after the body moved `travelled` metres along its path (0 for a
 /// vehicle just placed: its heading is then the chord's at once).
 pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
-    let in_place;
-    (v.sideways, in_place) = sideways_after(v, travelled, v.heading);
+    let (side, in_place) = sideways_after(v, travelled, v.heading);
+    v.sideways = side;
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
         if front.max(rear) <= v.sideways.reach(v.width) || v.sideways.offset == 0.0 {

@@ -321,33 +321,18 @@ fn a_body_swinging_out_of_a_sharp_corner_is_seen_where_it_will_be_drawn() {
     }
 }
 
-/// Three eastbound lanes 3.2 m wide and 3.2 m apart (`a0` the rightmost,
-/// at a queue's creep: 0.05 m/s; the others at 9.5 m/s), each going on
-/// through its own junction lane to its own exit.
+/// [`road_of_lanes`]`(3)` with lanes 3.2 m wide, as far apart as their
+/// centrelines (`a0` the rightmost, at a queue's creep: 0.05 m/s; the
+/// other approaches at 9.5 m/s).
 fn three_narrow_lanes() -> trafficmesh_model::MapFile {
-    let y = |k: usize| 3.2 * k as f64;
-    let mut lanes = Vec::new();
-    for k in 0..3 {
-        let mut a = lane(
-            &format!("a{k}"),
-            &[[0.0, y(k)], [300.0, y(k)]],
-            &[&format!("j{k}")],
-        );
-        a["width"] = json!(3.2);
-        a["speed_limit"] = json!(if k == 0 { 0.05 } else { 9.5 });
-        let mut j = lane(
-            &format!("j{k}"),
-            &[[300.0, y(k)], [320.0, y(k)]],
-            &[&format!("x{k}")],
-        );
-        j["intersection"] = json!(true);
-        lanes.extend([
-            a,
-            j,
-            lane(&format!("x{k}"), &[[320.0, y(k)], [500.0, y(k)]], &[]),
-        ]);
+    let mut m = road_of_lanes(3);
+    for l in &mut m.lanes {
+        l.width = 3.2;
+        if l.name.starts_with('a') {
+            l.speed_limit = if l.name == "a0" { 0.05 } else { 9.5 };
+        }
     }
-    map(lanes, json!({}))
+    m
 }
 
 /// A truck changing from the left lane to the middle one at speed, its
