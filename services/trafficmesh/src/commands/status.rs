@@ -69,9 +69,10 @@ pub fn run(a: StatusArgs) -> Result<()> {
         let bus = Bus::open(&a.bus, Role::Member, "status").await?;
         bus.wait_for_peer(wait).await;
         let keys = bus.keys().clone();
-        // A session just opened meets the others one by one: ask again
-        // until every expected service is alive and every live one has
-        // answered, or the wait is over.
+        // A session just opened meets the others one by one, and a
+        // service's status can reach it before its liveliness token: ask
+        // again until every expected service is alive and the live ones
+        // and the ones that answered are the same, or the wait is over.
         let deadline = tokio::time::Instant::now() + wait;
         let mut alive = BTreeSet::new();
         let mut statuses = BTreeMap::new();
@@ -86,8 +87,8 @@ pub fn run(a: StatusArgs) -> Result<()> {
             {
                 statuses.insert(s.service.clone(), s);
             }
-            let complete = a.expect.iter().all(|e| alive.contains(e))
-                && alive.iter().all(|s| statuses.contains_key(s));
+            let complete =
+                a.expect.iter().all(|e| alive.contains(e)) && alive.iter().eq(statuses.keys());
             if complete || tokio::time::Instant::now() >= deadline {
                 break;
             }
