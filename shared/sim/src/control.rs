@@ -11,6 +11,7 @@ use crate::cognition::curve::is_turning;
 use crate::cognition::path::point_on_path;
 use crate::decision::StopCandidates;
 use crate::network::LaneNetwork;
+use crate::pose::Moved;
 use crate::vehicle::Vehicle;
 
 pub const SLOW_SPEED: f64 = 5.0;
@@ -216,22 +217,21 @@ const LIMIT_LOOKAHEAD: f64 = 100.0;
 const REAR_TANGENT: f64 = 0.5;
 
 /// Recomputes the body from the arc position ([`place_body`]), then the pose
-/// drawn ([`crate::pose::draw`]), the body having moved `travelled` metres
-/// since.
+/// drawn ([`crate::pose::draw`]), the body having `moved` since.
 ///
 /// A function of the lane and arc position alone, so a vehicle standing
 /// where it stood last tick (queued, or held at a light) keeps it, unless it
 /// is finishing a lane change in place ([`crate::pose::finishing_across`]).
-pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, travelled: f64) {
+pub fn update_pose(net: &LaneNetwork, v: &mut Vehicle, moved: Moved) {
     if v.pose_at == (v.path[0], v.s) {
         if crate::pose::finishing_across(v) {
-            crate::pose::draw(v, 0.0, false, v.pose.z);
+            crate::pose::draw(v, Moved::NOT, false, v.pose.z);
         }
         return;
     }
     let fresh = v.pose_at.1.is_nan();
     let z = place_body(net, v, fresh);
-    crate::pose::draw(v, travelled, fresh, z);
+    crate::pose::draw(v, moved, fresh, z);
 }
 
 /// Front and back points, the body's heading and its angle from the arc

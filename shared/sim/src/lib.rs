@@ -51,6 +51,7 @@ pub use cognition::right_of_way::IMPATIENCE_TIME;
 pub use ego::Ego;
 pub use events::{DespawnReason, SimEvent, TripRecord};
 pub use network::{LaneId, LaneNetwork};
+pub use pose::Moved;
 pub use trajectory::TrajectoryHash;
 pub use vehicle::{Pose, Vehicle, VehicleId};
 pub use world::{WaitStats, World, WorldConfig, WorldError};

@@ -65,10 +65,32 @@ pub fn finishing_across(v: &Vehicle) -> bool {
     v.shadow.is_some() && v.lane_change.is_some() && v.speed < STOPPED_SPEED
 }
 
-/// The pose after the body moved `travelled` metres along its path (0 for a
+/// A tick's move along the path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Moved {
+    /// Metres driven.
+    pub distance: f64,
+    /// The speed the tick began at: a lane change's curve is the one that
+    /// speed drives. The clearance check forecast the body on it before
+    /// the move, and the speed the tick ends at is lower where that check
+    /// held the vehicle back (a tighter curve would swing the body further
+    /// across than forecast).
+    pub from_speed: f64,
+}
+
+impl Moved {
+    /// Not moved: a vehicle just placed, or standing.
+    pub const NOT: Moved = Moved {
+        distance: 0.0,
+        from_speed: 0.0,
+    };
+}
+
+/// The pose after the body `moved` along its path (not at all for a
 /// vehicle just placed: its heading is then the chord's at once).
-pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
-    let (side, in_place) = sideways_after(v, travelled, v.heading);
+pub fn draw(v: &mut Vehicle, moved: Moved, fresh: bool, z: f64) {
+    let travelled = moved.distance;
+    let (side, in_place) = sideways_after(v, moved.from_speed, travelled, v.heading);
     v.sideways = side;
     if v.shadow.is_some() {
         let (front, rear) = v.sideways.ends_across(v.front_offset, v.length);
@@ -104,22 +126,22 @@ pub fn draw(v: &mut Vehicle, travelled: f64, fresh: bool, z: f64) {
 }
 
 /// Where the body lies across its path after `travelled` metres more along
-/// it (`along`, the path's direction), and how far a way across finished
-/// in place moved it.
-fn sideways_after(v: &Vehicle, travelled: f64, along: DVec2) -> (Sideways, f64) {
+/// it (`along`, the path's direction) from a tick begun at `speed`, and
+/// how far a way across finished in place moved it.
+fn sideways_after(v: &Vehicle, speed: f64, travelled: f64, along: DVec2) -> (Sideways, f64) {
     let mut side = v.sideways;
     if travelled < ACROSS_IN_PLACE && finishing_across(v) {
         let moved = across_in_place(&mut side);
         return (side, moved);
     }
     let ends = (v.front_offset, v.length - v.front_offset);
-    ease_sideways(&mut side, v.speed, travelled, along, ends);
+    ease_sideways(&mut side, speed, travelled, along, ends);
     (side, 0.0)
 }
 
 /// The centre and axis the body will be drawn with after driving
-/// `travelled` metres on, its chord then running from `back` to `front`:
-/// what [`draw`] makes of it. For the clearance check's forecast of a body
+/// `travelled` metres on in this tick, its chord then running from `back`
+/// to `front`: what [`draw`] makes of it. For the clearance check's forecast of a body
 /// that does not move as its chord does: one whose heading lags the chord
 /// (its corners then move otherwise, by up to the step the hold leaves
 /// over), or one on its way across a lane change (it moves across as it
@@ -138,7 +160,7 @@ pub(crate) fn drawn_after(
         v.heading
     };
     let overhang = (0.5 * (v.length - length)).max(0.0);
-    let (side, in_place) = sideways_after(v, travelled, heading);
+    let (side, in_place) = sideways_after(v, v.speed, travelled, heading);
     let target = wrap(heading.y.atan2(heading.x) + side.angle);
     let yaw = turned_toward(v.pose.yaw, target, travelled);
     let on_path = front - heading * (v.front_offset - overhang);
@@ -153,6 +175,14 @@ pub(crate) fn drawn_after(
 fn turned_toward(yaw: f64, target: f64, travelled: f64) -> f64 {
     let most = travelled.max(0.0) / TURN_RADIUS;
     wrap(yaw + wrap(target - yaw).clamp(-most, most))
+}
+
+/// Whether a chord turning by `turn` (a unit rotation) over `travelled`
+/// metres turns faster than the drawn heading may follow ([`turned_toward`]):
+/// the heading then lags it.
+pub(crate) fn outturns(turn: DVec2, travelled: f64) -> bool {
+    let most = travelled.max(0.0) / TURN_RADIUS;
+    most < std::f64::consts::PI && turn.x < most.cos()
 }
 
 /// Where a heading `yaw` lags its chord's `target`, the body turns about

@@ -379,3 +379,60 @@ fn a_truck_changing_lanes_beside_another_is_seen_moving_across() {
         );
     }
 }
+
+/// [`road_of_lanes`]`(2)` with lanes 3.2 m wide at 11 m/s, and beside the
+/// left one a lane the other way, `w`, only 2.6 m off (two streets meeting
+/// at a junction lie so in SUMO nets: Bologna's 11 and 67), its traffic at
+/// a queue's creep (0.05 m/s).
+fn a_road_beside_a_near_lane_the_other_way() -> trafficmesh_model::MapFile {
+    let mut m = road_of_lanes(2);
+    for l in &mut m.lanes {
+        l.width = 3.2;
+        l.speed_limit = 11.0;
+    }
+    let mut near = serde_json::to_value(&m).unwrap();
+    let mut w = lane("w", &[[400.0, 5.8], [0.0, 5.8]], &[]);
+    w["width"] = json!(3.2);
+    w["speed_limit"] = json!(0.05);
+    near["lanes"].as_array_mut().unwrap().push(w);
+    serde_json::from_value(near).unwrap()
+}
+
+/// A truck changing lanes at speed toward a truck standing in the lane
+/// beyond, its body angled across the way: the clearance check stops it
+/// short, and the body is drawn where the check forecast it. Held back,
+/// the truck ends the tick slower than it began; were its way across then
+/// drawn on the tighter curve of the lower speed, its front corner would
+/// swing further across than forecast, into the truck standing there.
+#[test]
+fn a_truck_held_back_mid_lane_change_is_drawn_where_it_was_forecast() {
+    for standing_at in (0..39).map(|k| 46.0 + 0.5 * k as f64) {
+        let mut w = world(
+            &a_road_beside_a_near_lane_the_other_way(),
+            WorldConfig {
+                vehicle: trafficmesh_model::NpcVehicleConfig {
+                    speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+                    ..Default::default()
+                },
+                dt: 0.1,
+                ..WorldConfig::default()
+            },
+        );
+        w.place_vehicle("Truck_2t", "w", 400.0 - standing_at, 0.0)
+            .unwrap();
+        let changing = w
+            .place_vehicle_on_route("Truck_2t", &["a0", "j1", "x1"], 40.0, 11.0)
+            .unwrap();
+        let mut held_mid_change = false;
+        run_until(&mut w, 20.0, |w| {
+            assert_no_overlap(w);
+            let v = w.vehicle(changing).unwrap();
+            held_mid_change |= v.speed == 0.0 && v.sideways.offset != 0.0;
+            false
+        });
+        assert!(
+            held_mid_change,
+            "the truck is held back mid-change (standing at {standing_at} m)"
+        );
+    }
+}

@@ -153,7 +153,7 @@ fn a_vehicle_that_changes_lanes_standing_still_is_on_its_new_lane_but_drawn_wher
     assert!(v.front.y.abs() < 1e-9, "placed on a0 (y = 0)");
     // The move across, then a tick's pose update with the position unchanged.
     trafficmesh_sim::lane_change::apply(net, &mut v, net.lane_id("a1").unwrap());
-    trafficmesh_sim::control::update_pose(net, &mut v, 0.0);
+    trafficmesh_sim::control::update_pose(net, &mut v, trafficmesh_sim::Moved::NOT);
     // a1 runs along y = 3.2: both bumpers follow it, for those who look for
     // it there; a car standing still does not move sideways, so its pose stays.
     for (what, y) in [("front", v.front.y), ("back", v.back.y)] {

@@ -402,14 +402,22 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
     let (front, _) = point_on_path(snap.net, v, travel);
     let (back, _) = point_on_path(snap.net, v, travel - v.length);
     let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
+    let turn = match (
+        (v.front - v.back).try_normalize(),
+        (front - back).try_normalize(),
+    ) {
+        (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
+        _ => DVec2::X,
+    };
     // A wide body on its way across a lane change moves across as it
     // drives on, toward the lane it heads for: beside the one it left, it
     // comes nearer the lane on its other side by centimetres a tick (others
-    // have room to spare there). A heading that lags its chord turns as it
-    // drives. Else the body moves with its chord. (Nearly every call: no
-    // trigonometry.)
+    // have room to spare there). A heading that lags its chord, or will
+    // (the chord turns faster than a car can), turns as it drives. Else
+    // the body moves with its chord. (Nearly every call: no trigonometry.)
     let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
-    if (changing && is_wide(snap.net, v)) || (!changing && v.pose.yaw != v.body_yaw) {
+    let lags = v.pose.yaw != v.body_yaw || crate::pose::outturns(turn, travel);
+    if (changing && is_wide(snap.net, v)) || (!changing && lags) {
         let (centre, axis) = crate::pose::drawn_after(v, travel, front, back);
         let obb = Obb {
             centre,
@@ -418,13 +426,6 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
         };
         return (obb.corners(), axis, mid_then);
     }
-    let turn = match (
-        (v.front - v.back).try_normalize(),
-        (front - back).try_normalize(),
-    ) {
-        (Some(now), Some(then)) => then.rotate(DVec2::new(now.x, -now.y)),
-        _ => DVec2::X,
-    };
     // Where it is drawn off its path (see `Sideways::residual`), the body
     // eases back onto it as it drives.
     let eased = crate::pose::residual_after(v.sideways.residual, travel) - v.sideways.residual;

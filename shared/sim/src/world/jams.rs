@@ -422,7 +422,7 @@ fn relocate(net: &LaneNetwork, v: &mut Vehicle, lane: LaneId, place: WayPlace) {
     v.pose = Pose::default();
     v.sideways = Default::default();
     v.shadow = None;
-    crate::control::update_pose(net, v, 0.0);
+    crate::control::update_pose(net, v, crate::pose::Moved::NOT);
     v.trip.wait = 0.0;
     v.trip.held_by_rule = 0.0;
 }

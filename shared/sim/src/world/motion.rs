@@ -18,6 +18,7 @@ use crate::lights::Lights;
 use crate::lookahead;
 use crate::network::LaneNetwork;
 use crate::parallel::{chunk_count, chunk_len};
+use crate::pose::Moved;
 use crate::trajectory::pose_digest;
 use crate::vehicle::Vehicle;
 use crate::visualization::update_trip;
@@ -128,7 +129,7 @@ fn move_vehicle(
     if v.should_despawn {
         return None;
     }
-    let s_before = v.s;
+    let (s_before, speed_before) = (v.s, v.speed);
     let (mode, stops) = decide(v, config, || is_turning(net, v));
     v.speed_mode = mode;
     // One lookup of the lane's limit for the speed step and the trip's time loss.
@@ -141,7 +142,11 @@ fn move_vehicle(
     };
     step_speed(net, v, config, &stops, allowed, dt);
     cap_travel(v, s_before, p.travel_cap, dt);
-    update_pose(net, v, v.s - s_before);
+    let moved = Moved {
+        distance: v.s - s_before,
+        from_speed: speed_before,
+    };
+    update_pose(net, v, moved);
     update_trip(v, dt, limit);
     crossed_on_red(net, lights, time, v, s_before)
 }

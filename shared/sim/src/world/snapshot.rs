@@ -124,7 +124,7 @@ impl World {
             crate::lane_change::refresh_first_lanes(&self.net, v);
             v.pose_at = (LaneId::MAX, f64::NAN);
             v.pose = Pose::default();
-            crate::control::update_pose(&self.net, v, 0.0);
+            crate::control::update_pose(&self.net, v, crate::pose::Moved::NOT);
         }
         let highest = snapshot
             .vehicles

@@ -309,7 +309,7 @@ impl World {
             },
         };
         v.first_junction_lane = crate::cognition::path::first_junction_lane(&self.net, &v.path);
-        update_pose(&self.net, &mut v, 0.0);
+        update_pose(&self.net, &mut v, crate::pose::Moved::NOT);
         self.events.push(SimEvent::Spawned {
             id,
             kind: k.name.clone(),
