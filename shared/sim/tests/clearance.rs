@@ -321,6 +321,43 @@ fn a_body_swinging_out_of_a_sharp_corner_is_seen_where_it_will_be_drawn() {
     }
 }
 
+/// The same corner at ten ticks a second (as SUMO scenarios run), a car or
+/// a truck turning it while a truck at the road's limit comes along the
+/// road beside, from wherever it starts. The one that goes first keeps off
+/// the other's body only as it stands; the other, already in the ground
+/// the first can cover in the tick, must come no nearer it on any side:
+/// sliding along that ground's edge (no deeper into it) still closed on
+/// the body, by up to 29 cm. No bodies meet, and both drive on.
+#[test]
+fn a_body_in_the_ground_of_one_going_first_comes_no_nearer_it() {
+    for (kind, speed) in [
+        ("Taxi", 3.0),
+        ("Taxi", 8.0),
+        ("Truck_2t", 3.0),
+        ("Truck_2t", 8.0),
+    ] {
+        for from in (0..100).map(|k| k as f64) {
+            let mut w = world(
+                &sharp_corner_beside_a_road(),
+                WorldConfig {
+                    dt: 0.1,
+                    ..WorldConfig::default()
+                },
+            );
+            w.place_vehicle(kind, "east", 80.0, speed).unwrap();
+            w.place_vehicle("Truck_2t", "beside", from, 0.0).unwrap();
+            let through = run_until(&mut w, 60.0, |w| {
+                assert_no_overlap(w);
+                w.vehicles().is_empty()
+            });
+            assert!(
+                through,
+                "both drive on ({kind} at {speed} m/s, from {from} m)"
+            );
+        }
+    }
+}
+
 /// [`road_of_lanes`]`(3)` with lanes 3.2 m wide, as far apart as their
 /// centrelines (`a0` the rightmost, at a queue's creep: 0.05 m/s; the
 /// other approaches at 9.5 m/s).

@@ -119,7 +119,12 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
         } else {
             0.0
         };
-        let Some(travel) = mover.travel_clear_of(&obstacle, margin) else {
+        let travel = if first {
+            mover.travel_clear_of_ground(&obstacle, margin)
+        } else {
+            mover.travel_clear_of(&obstacle, margin)
+        };
+        let Some(travel) = travel else {
             return;
         };
         let better = nearest.is_none_or(|(b, id)| (travel, other.id) < (b.travel, id));
@@ -151,23 +156,42 @@ impl Mover<'_, '_> {
     /// already, coming no nearer); None where that is out of reach or its
     /// sweep this tick keeps clear.
     fn travel_clear_of(&self, obstacle: &Shape, margin: f64) -> Option<f64> {
-        let Mover {
-            snap, v, own, body, ..
-        } = *self;
-        let now = body.gap(obstacle);
-        if now > own.swing + MARGIN {
+        let now = self.body.gap(obstacle);
+        if now > self.own.swing + MARGIN {
             return None;
         }
         // Rounding slack on the side of keeping apart: bodies that are apart
         // stay so by a hair, where a margin of nothing would let them touch.
         let keep = now.min(margin.max(2.0 * SLACK)) - SLACK;
+        self.furthest(|sweep| sweep.keeps(obstacle, keep))
+    }
+
+    /// [`Mover::travel_clear_of`] the ground a vehicle that goes first can
+    /// cover this tick. Standing in that ground already, coming no deeper
+    /// into it is not enough: sliding along its edge closes on the body
+    /// that goes first, which keeps off this one only as it stands. It
+    /// comes no nearer that ground on any side.
+    fn travel_clear_of_ground(&self, ground: &Shape, margin: f64) -> Option<f64> {
+        let body = self.body;
+        if body.gap(ground) >= margin {
+            return self.travel_clear_of(ground, margin);
+        }
+        self.furthest(|sweep| sweep.no_nearer(ground, body))
+    }
+
+    /// None where its whole sweep this tick is `clear`; else the furthest
+    /// travel whose sweep is.
+    fn furthest(&self, clear: impl Fn(&Shape) -> bool) -> Option<f64> {
+        let Mover { snap, v, own, .. } = *self;
         let sweep = self
             .sweep
             .get_or_init(|| Shape::swept(snap, v, own, own.reach));
-        if sweep.keeps(obstacle, keep) {
+        if clear(sweep) {
             return None;
         }
-        Some(clear_travel(snap, v, own, obstacle, keep))
+        Some(clear_travel(own, |travel| {
+            clear(&Shape::swept(snap, v, own, travel))
+        }))
     }
 }
 
@@ -288,12 +312,12 @@ fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
     a.id < b.id
 }
 
-/// The furthest travel whose sweep keeps `keep` from `obstacle`.
-fn clear_travel(snap: &Snapshot, v: &Vehicle, own: &BodyBox, obstacle: &Shape, keep: f64) -> f64 {
+/// The furthest travel within the tick's reach that is `clear`.
+fn clear_travel(own: &BodyBox, clear_at: impl Fn(f64) -> bool) -> f64 {
     let (mut clear, mut blocked) = (0.0, own.reach);
     for _ in 0..BISECTIONS {
         let mid = 0.5 * (clear + blocked);
-        if Shape::swept(snap, v, own, mid).keeps(obstacle, keep) {
+        if clear_at(mid) {
             clear = mid;
         } else {
             blocked = mid;
@@ -386,6 +410,13 @@ impl Shape {
             .fold(f64::NEG_INFINITY, f64::max)
     }
 
+    /// Whether this shape (a sweep from `now`) comes no nearer `other`
+    /// than `now` is on any of their axes.
+    fn no_nearer(&self, other: &Shape, now: &Shape) -> bool {
+        self.all_axes(other)
+            .all(|axis| self.apart_on(other, axis) >= now.apart_on(other, axis) - SLACK)
+    }
+
     /// Whether the two keep `keep` apart on some axis.
     fn keeps(&self, other: &Shape, keep: f64) -> bool {
         self.all_axes(other)
@@ -416,7 +447,9 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
     // (the chord turns faster than a car can), turns as it drives. Else
     // the body moves with its chord. (Nearly every call: no trigonometry.)
     let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
-    let lags = v.pose.yaw != v.body_yaw || crate::pose::outturns(turn, travel);
+    let lags = v.pose.yaw != v.body_yaw
+        || v.sideways.residual != DVec2::ZERO
+        || crate::pose::outturns(turn, travel);
     if (changing && is_wide(snap.net, v)) || (!changing && lags) {
         let (centre, axis) = crate::pose::drawn_after(v, travel, front, back);
         let obb = Obb {
