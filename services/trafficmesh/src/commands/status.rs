@@ -87,9 +87,7 @@ pub fn run(a: StatusArgs) -> Result<()> {
             {
                 statuses.insert(s.service.clone(), s);
             }
-            let complete =
-                a.expect.iter().all(|e| alive.contains(e)) && alive.iter().eq(statuses.keys());
-            if complete || tokio::time::Instant::now() >= deadline {
+            if heard_all(&a.expect, &alive, &statuses) || tokio::time::Instant::now() >= deadline {
                 break;
             }
             tokio::time::sleep(Duration::from_millis(100)).await;
@@ -102,6 +100,16 @@ pub fn run(a: StatusArgs) -> Result<()> {
         print!("{}", text(&health));
     }
     Ok(())
+}
+
+/// Every expected service is alive, and the live services and those that
+/// answered for their status are the same.
+fn heard_all(
+    expected: &[String],
+    alive: &BTreeSet<String>,
+    statuses: &BTreeMap<String, ServiceStatus>,
+) -> bool {
+    expected.iter().all(|e| alive.contains(e)) && alive.iter().eq(statuses.keys())
 }
 
 /// The services whose liveliness tokens are present.
@@ -196,4 +204,31 @@ fn text(h: &Health) -> String {
         ));
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn status(service: &str) -> (String, ServiceStatus) {
+        let s: ServiceStatus = serde_json::from_value(serde_json::json!({
+            "service": service, "host": "h", "pid": 1, "time": 0.0,
+            "bad_payloads": 0, "bad_payloads_by_key": {}, "peers": [], "details": {}
+        }))
+        .unwrap();
+        (service.to_string(), s)
+    }
+
+    /// A service that answered for its status before its liveliness token
+    /// reached the session is not yet heard in full: ask again, else it
+    /// would be reported as not alive.
+    #[test]
+    fn a_service_that_answered_but_is_not_yet_seen_alive_is_asked_again() {
+        let statuses: BTreeMap<_, _> = [status("stepper"), status("admin")].into();
+        let alive: BTreeSet<String> = ["stepper".to_string()].into();
+        assert!(!heard_all(&[], &alive, &statuses));
+        let alive: BTreeSet<String> = ["stepper".to_string(), "admin".into()].into();
+        assert!(heard_all(&[], &alive, &statuses));
+        assert!(!heard_all(&["lights".into()], &alive, &statuses));
+    }
 }
