@@ -179,10 +179,20 @@ fn turned_toward(yaw: f64, target: f64, travelled: f64) -> f64 {
 
 /// Whether a chord turning by `turn` (a unit rotation) over `travelled`
 /// metres turns faster than the drawn heading may follow ([`turned_toward`]):
-/// the heading then lags it.
+/// the heading then lags it. Without trigonometry: the cosine's Taylor
+/// bound 1 - a²/2 + a⁴/24 is never below it, so no turn too fast is missed
+/// (one within a hair of the most is counted too fast).
 pub(crate) fn outturns(turn: DVec2, travelled: f64) -> bool {
     let most = travelled.max(0.0) / TURN_RADIUS;
-    most < std::f64::consts::PI && turn.x < most.cos()
+    let most2 = most * most;
+    most < std::f64::consts::PI && turn.x < 1.0 - most2 * (0.5 - most2 / 24.0)
+}
+
+/// Whether the body is drawn off its path by more than the hold on its
+/// step leaves over ([`Sideways::residual`]): easing back, it may then be
+/// held. (A residual decays toward nothing without reaching it.)
+pub(crate) fn drawn_off_path(v: &Vehicle) -> bool {
+    v.sideways.residual.length_squared() > STEP_SLACK * STEP_SLACK
 }
 
 /// Where a heading `yaw` lags its chord's `target`, the body turns about

@@ -358,6 +358,19 @@ fn a_body_in_the_ground_of_one_going_first_comes_no_nearer_it() {
     }
 }
 
+/// Ten ticks a second, as SUMO scenarios run (a body changing lanes moves
+/// across by 10 to 20 cm a tick), each vehicle at its lane's limit.
+fn at_sumo_ticks_and_lane_limits() -> WorldConfig {
+    WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+            ..Default::default()
+        },
+        dt: 0.1,
+        ..WorldConfig::default()
+    }
+}
+
 /// [`road_of_lanes`]`(3)` with lanes 3.2 m wide, as far apart as their
 /// centrelines (`a0` the rightmost, at a queue's creep: 0.05 m/s; the
 /// other approaches at 9.5 m/s).
@@ -380,19 +393,7 @@ fn three_narrow_lanes() -> trafficmesh_model::MapFile {
 #[test]
 fn a_truck_changing_lanes_beside_another_is_seen_moving_across() {
     for beside in (0..100).map(|k| 15.0 + 0.5 * k as f64) {
-        let mut w = world(
-            &three_narrow_lanes(),
-            WorldConfig {
-                vehicle: trafficmesh_model::NpcVehicleConfig {
-                    speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
-                    ..Default::default()
-                },
-                // Ten ticks a second, as SUMO scenarios run: the body moves
-                // across by 10 to 20 cm a tick.
-                dt: 0.1,
-                ..WorldConfig::default()
-            },
-        );
+        let mut w = world(&three_narrow_lanes(), at_sumo_ticks_and_lane_limits());
         w.place_vehicle("Truck_2t", "a0", beside, 0.0).unwrap();
         let changing = w
             .place_vehicle_on_route("Truck_2t", &["a2", "j1", "x1"], 12.0, 8.0)
@@ -446,14 +447,7 @@ fn a_truck_held_back_mid_lane_change_is_drawn_where_it_was_forecast() {
     for standing_at in (0..39).map(|k| 46.0 + 0.5 * k as f64) {
         let mut w = world(
             &a_road_beside_a_near_lane_the_other_way(),
-            WorldConfig {
-                vehicle: trafficmesh_model::NpcVehicleConfig {
-                    speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
-                    ..Default::default()
-                },
-                dt: 0.1,
-                ..WorldConfig::default()
-            },
+            at_sumo_ticks_and_lane_limits(),
         );
         w.place_vehicle("Truck_2t", "w", 400.0 - standing_at, 0.0)
             .unwrap();

@@ -119,12 +119,7 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
         } else {
             0.0
         };
-        let travel = if first {
-            mover.travel_clear_of_ground(&obstacle, margin)
-        } else {
-            mover.travel_clear_of(&obstacle, margin)
-        };
-        let Some(travel) = travel else {
+        let Some(travel) = mover.travel_clear_of(&obstacle, margin, first) else {
             return;
         };
         let better = nearest.is_none_or(|(b, id)| (travel, other.id) < (b.travel, id));
@@ -153,30 +148,24 @@ struct Mover<'a, 'b> {
 
 impl Mover<'_, '_> {
     /// How far it may drive keeping `margin` from `obstacle` (or, nearer
-    /// already, coming no nearer); None where that is out of reach or its
-    /// sweep this tick keeps clear.
-    fn travel_clear_of(&self, obstacle: &Shape, margin: f64) -> Option<f64> {
+    /// already, coming no deeper into it); None where that is out of reach
+    /// or its sweep this tick keeps clear. Where the obstacle is the ground
+    /// a vehicle that goes `first` can cover this tick, nearer already, it
+    /// comes no nearer that ground on any side: sliding along its edge (no
+    /// deeper into it) would close on the body that goes first, which keeps
+    /// off this one only as it stands.
+    fn travel_clear_of(&self, obstacle: &Shape, margin: f64, first: bool) -> Option<f64> {
         let now = self.body.gap(obstacle);
         if now > self.own.swing + MARGIN {
             return None;
+        }
+        if first && now < margin {
+            return self.furthest(|sweep| sweep.no_nearer(obstacle, self.body));
         }
         // Rounding slack on the side of keeping apart: bodies that are apart
         // stay so by a hair, where a margin of nothing would let them touch.
         let keep = now.min(margin.max(2.0 * SLACK)) - SLACK;
         self.furthest(|sweep| sweep.keeps(obstacle, keep))
-    }
-
-    /// [`Mover::travel_clear_of`] the ground a vehicle that goes first can
-    /// cover this tick. Standing in that ground already, coming no deeper
-    /// into it is not enough: sliding along its edge closes on the body
-    /// that goes first, which keeps off this one only as it stands. It
-    /// comes no nearer that ground on any side.
-    fn travel_clear_of_ground(&self, ground: &Shape, margin: f64) -> Option<f64> {
-        let body = self.body;
-        if body.gap(ground) >= margin {
-            return self.travel_clear_of(ground, margin);
-        }
-        self.furthest(|sweep| sweep.no_nearer(ground, body))
     }
 
     /// None where its whole sweep this tick is `clear`; else the furthest
@@ -246,7 +235,7 @@ fn way_of_the_yielded(mover: &Mover, i: usize) -> Option<Blocked> {
     while from < way {
         let ground = Shape::swept_between(snap, w, other, from, from + YIELDED_STEP);
         from += YIELDED_STEP;
-        if let Some(travel) = mover.travel_clear_of(&ground, MARGIN) {
+        if let Some(travel) = mover.travel_clear_of(&ground, MARGIN, false) {
             nearest = Some(nearest.map_or(travel, |n| n.min(travel)));
         }
     }
@@ -444,11 +433,12 @@ fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 
     // drives on, toward the lane it heads for: beside the one it left, it
     // comes nearer the lane on its other side by centimetres a tick (others
     // have room to spare there). A heading that lags its chord, or will
-    // (the chord turns faster than a car can), turns as it drives. Else
+    // (the chord turns faster than a car can), turns as it drives; one
+    // drawn off its path eases back as the hold on its step lets it. Else
     // the body moves with its chord. (Nearly every call: no trigonometry.)
     let changing = v.sideways.offset != 0.0 || v.sideways.angle != 0.0;
     let lags = v.pose.yaw != v.body_yaw
-        || v.sideways.residual != DVec2::ZERO
+        || crate::pose::drawn_off_path(v)
         || crate::pose::outturns(turn, travel);
     if (changing && is_wide(snap.net, v)) || (!changing && lags) {
         let (centre, axis) = crate::pose::drawn_after(v, travel, front, back);
