@@ -13,7 +13,7 @@ use std::f64::consts::FRAC_PI_2;
 use trafficmesh_model::TurnDirection;
 use trafficmesh_model::map::{
     CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, MAP_FORMAT, MapFile, Point,
-    SimulatorDef, StopPointDef, ZebraConfigDef,
+    RoadConflicts, SimulatorDef, StopPointDef, ZebraConfigDef,
 };
 
 pub const LANE_WIDTH: f64 = 3.5;
@@ -289,7 +289,7 @@ pub fn grid_map(o: &GridOptions) -> MapFile {
         .collect();
     let attempts = (spawn_lanes.len() / 40).max(1) as u32;
     MapFile {
-        conflicts_outside_junctions: false,
+        road_conflicts: RoadConflicts::None,
         vehicle_kinds: Vec::new(),
         intersections: Vec::new(),
         format: MAP_FORMAT.to_string(),

@@ -2,7 +2,9 @@
 //! and element), and the XML attribute helpers the importers share.
 
 use roxmltree::{Document, Node};
-use trafficmesh_model::map::{CrosswalkDef, LaneDef, LightGroupDef, MapFile, SimulatorDef};
+use trafficmesh_model::map::{
+    CrosswalkDef, LaneDef, LightGroupDef, MapFile, RoadConflicts, SimulatorDef,
+};
 
 /// A map read from a foreign file, and what could not be carried over.
 #[derive(Debug)]
@@ -50,14 +52,14 @@ impl ImportError {
 
 /// The network an importer read, in the native format. `is_entry` tells the
 /// lanes nothing leads into, where the map's random simulator spawns;
-/// `conflicts_outside_junctions` that the format does not mark every junction.
+/// `road_conflicts` where lanes outside the junctions it marks may touch.
 pub fn assemble(
     name: String,
     lanes: Vec<LaneDef>,
     light_groups: Vec<LightGroupDef>,
     crosswalks: Vec<CrosswalkDef>,
     is_entry: impl Fn(usize) -> bool,
-    conflicts_outside_junctions: bool,
+    road_conflicts: RoadConflicts,
     warnings: Vec<String>,
 ) -> Imported {
     let entries: Vec<String> = lanes
@@ -76,7 +78,7 @@ pub fn assemble(
             crosswalks,
             zebra_configs: Vec::new(),
             traffic_simulators,
-            conflicts_outside_junctions,
+            road_conflicts,
             vehicle_kinds: Vec::new(),
             intersections: Vec::new(),
         },

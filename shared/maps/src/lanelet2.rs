@@ -15,7 +15,7 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point, RoadConflicts,
 };
 
 use crate::import::{ImportError, Imported, assemble, attr, parse_xml};
@@ -438,7 +438,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         |i| predecessors[i].is_empty(),
         // Junctions are guessed (turn tags, splits, joins): lanelets also
         // cross and run close outside them.
-        true,
+        RoadConflicts::Everywhere,
         warnings,
     ))
 }

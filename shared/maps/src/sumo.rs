@@ -12,7 +12,7 @@ use std::collections::{BTreeMap, HashMap};
 use roxmltree::{Document, Node};
 use trafficmesh_model::enums::TurnDirection;
 use trafficmesh_model::map::{
-    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point,
+    CrosswalkArea, CrosswalkDef, LaneDef, LightGroupDef, LightProgram, Point, RoadConflicts,
 };
 
 use crate::import::{ImportError, Imported, assemble, attr, attr_f64, parse_xml};
@@ -180,8 +180,9 @@ pub fn import_with_programs(
         light_groups,
         crosswalks,
         |i| !entered[i],
-        // Internal lanes make up every junction.
-        false,
+        // Internal lanes make up every junction, but the streets of a real
+        // net may lie closer than two trucks need to pass each other.
+        RoadConflicts::Opposing,
         warnings,
     ))
 }

@@ -21,7 +21,7 @@ pub use driver_model::{DriverModel, IdmParams};
 pub use enums::{LightColor, SpeedMode, TurnDirection, TurnSignal, YieldPhase};
 pub use map::{
     CrosswalkArea, CrosswalkDef, DepartureDef, IntersectionController, IntersectionDef, LaneDef,
-    LightGroupDef, LightProgram, MapFile, MapProblem, SimulatorDef, ZebraConfigDef,
+    LightGroupDef, LightProgram, MapFile, MapProblem, RoadConflicts, SimulatorDef, ZebraConfigDef,
 };
 pub use spawn_config::{
     BranchWeights, NextWeight, SpawnConfigError, SpawnRate, TrafficSpawnConfig,

@@ -427,12 +427,69 @@ pub struct MapFile {
     /// scenario's vTypes), by name.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub vehicle_kinds: Vec<crate::VehicleKind>,
-    /// The map does not mark every place where lanes cross, split or join as
-    /// a junction (Lanelet2 imports): vehicles there are kept apart by conflict
-    /// zones between any lanes whose vehicles could touch, the one nearer the
-    /// zone going first.
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub conflicts_outside_junctions: bool,
+    /// Which lanes outside the map's junctions get conflict zones ("road"
+    /// conflicts, the vehicle nearer the zone going first). Read also under
+    /// its earlier name `conflicts_outside_junctions` (`true`: `everywhere`).
+    #[serde(
+        default,
+        alias = "conflicts_outside_junctions",
+        skip_serializing_if = "RoadConflicts::is_none"
+    )]
+    pub road_conflicts: RoadConflicts,
+}
+
+/// Where lanes outside the junctions a map marks are kept apart by conflict
+/// zones (see docs/maps.md).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RoadConflicts {
+    /// Nowhere: the map models every place where lanes meet as a junction
+    /// and lays its lanes at least two trucks' width apart (generated grids).
+    #[default]
+    None,
+    /// Between road lanes running the other way (SUMO imports: every
+    /// junction is modelled, but a two-way street's bend, or two streets
+    /// drawn side by side, can leave less room than two trucks need to pass).
+    Opposing,
+    /// Between any lanes whose vehicles could touch (Lanelet2 imports, which
+    /// do not mark every place where lanes cross, split or join).
+    Everywhere,
+}
+
+impl RoadConflicts {
+    pub fn is_none(&self) -> bool {
+        *self == RoadConflicts::None
+    }
+}
+
+impl<'de> Deserialize<'de> for RoadConflicts {
+    /// `"none"`, `"opposing"` or `"everywhere"`; `false` or `true` as the
+    /// earlier `conflicts_outside_junctions` flag was written.
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Written;
+        impl serde::de::Visitor<'_> for Written {
+            type Value = RoadConflicts;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("\"none\", \"opposing\" or \"everywhere\"")
+            }
+            fn visit_bool<E: serde::de::Error>(self, everywhere: bool) -> Result<RoadConflicts, E> {
+                Ok(if everywhere {
+                    RoadConflicts::Everywhere
+                } else {
+                    RoadConflicts::None
+                })
+            }
+            fn visit_str<E: serde::de::Error>(self, name: &str) -> Result<RoadConflicts, E> {
+                match name {
+                    "none" => Ok(RoadConflicts::None),
+                    "opposing" => Ok(RoadConflicts::Opposing),
+                    "everywhere" => Ok(RoadConflicts::Everywhere),
+                    _ => Err(E::invalid_value(serde::de::Unexpected::Str(name), &self)),
+                }
+            }
+        }
+        d.deserialize_any(Written)
+    }
 }
 
 /// One thing wrong with a map: the element it is in, the field, and what is wrong.
@@ -793,5 +850,34 @@ impl MapFile {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A map file with no lane and `fields` (JSON object members).
+    fn road_conflicts(fields: &str) -> Result<RoadConflicts, serde_json::Error> {
+        let sep = if fields.is_empty() { "" } else { ", " };
+        let json = format!(r#"{{"lanes": []{sep}{fields}}}"#);
+        serde_json::from_str::<MapFile>(&json).map(|m| m.road_conflicts)
+    }
+
+    #[test]
+    fn road_conflicts_read_by_name_and_as_the_earlier_flag() {
+        assert_eq!(road_conflicts("").unwrap(), RoadConflicts::None);
+        let opposing = r#""road_conflicts": "opposing""#;
+        assert_eq!(road_conflicts(opposing).unwrap(), RoadConflicts::Opposing);
+        let flag = r#""conflicts_outside_junctions": true"#;
+        assert_eq!(road_conflicts(flag).unwrap(), RoadConflicts::Everywhere);
+        let off = r#""conflicts_outside_junctions": false"#;
+        assert_eq!(road_conflicts(off).unwrap(), RoadConflicts::None);
+        let wrong = road_conflicts(r#""road_conflicts": "sometimes""#).unwrap_err();
+        assert!(
+            wrong.to_string().contains("\"sometimes\"")
+                && wrong.to_string().contains("\"opposing\""),
+            "{wrong}"
+        );
     }
 }

@@ -7,7 +7,8 @@ use trafficmesh_model::map::{
     CrosswalkArea, IntersectionController, IntersectionDef, MapFile, SimulatorDef,
 };
 use trafficmesh_model::{
-    LightProgram, MapProblem, TurnDirection, VehicleKind, ZebraConfigDef, builtin_kind,
+    LightProgram, MapProblem, RoadConflicts, TurnDirection, VehicleKind, ZebraConfigDef,
+    builtin_kind,
 };
 
 use crate::conflicts::{Conflict, find_conflicts_and_junctions};
@@ -222,6 +223,8 @@ pub struct LaneNetwork {
     pub junction_count: u32,
     /// The junctions under reservation control, in the map's order.
     pub reservation_junctions: Vec<u32>,
+    /// Which lanes outside junctions have conflict zones.
+    pub road_conflicts: RoadConflicts,
 }
 
 impl LaneNetwork {
@@ -297,8 +300,7 @@ impl LaneNetwork {
         for (lane, looped) in lanes.iter_mut().zip(in_closed_loop) {
             lane.in_closed_loop = looped;
         }
-        let junction_count =
-            find_conflicts_and_junctions(&mut lanes, map.conflicts_outside_junctions);
+        let junction_count = find_conflicts_and_junctions(&mut lanes, map.road_conflicts);
         let reservation_junctions = apply_controllers(&mut lanes, &map.intersections, &by_name);
 
         // The map's own kinds first, so that their names win over the catalogue's.
@@ -427,6 +429,7 @@ impl LaneNetwork {
             kinds,
             junction_count,
             reservation_junctions,
+            road_conflicts: map.road_conflicts,
         })
     }
 

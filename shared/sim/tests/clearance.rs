@@ -358,19 +358,6 @@ fn a_body_in_the_ground_of_one_going_first_comes_no_nearer_it() {
     }
 }
 
-/// Ten ticks a second, as SUMO scenarios run (a body changing lanes moves
-/// across by 10 to 20 cm a tick), each vehicle at its lane's limit.
-fn at_sumo_ticks_and_lane_limits() -> WorldConfig {
-    WorldConfig {
-        vehicle: trafficmesh_model::NpcVehicleConfig {
-            speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
-            ..Default::default()
-        },
-        dt: 0.1,
-        ..WorldConfig::default()
-    }
-}
-
 /// [`road_of_lanes`]`(3)` with lanes 3.2 m wide, as far apart as their
 /// centrelines (`a0` the rightmost, at a queue's creep: 0.05 m/s; the
 /// other approaches at 9.5 m/s).

@@ -373,7 +373,7 @@ fn a_vehicle_waiting_for_a_body_of_another_lane_across_its_way_is_a_jammed_head(
             lane("north_exit", &[[100.0, 24.0], [100.0, 200.0]], &[]),
         ],
         json!({
-            "conflicts_outside_junctions": true,
+            "road_conflicts": "everywhere",
             "light_groups": [{ "name": "L", "program": { "green": 30, "yellow": 3, "red": 30 } }]
         }),
     );

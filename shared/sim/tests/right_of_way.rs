@@ -186,7 +186,7 @@ fn a_vehicle_released_from_a_deadlock_is_not_held_again_by_the_one_it_waited_for
             b_x,
             lane("B_out", &[[20.0, 0.0], [200.0, 0.0]], &[]),
         ],
-        json!({ "conflicts_outside_junctions": true }),
+        json!({ "road_conflicts": "everywhere" }),
     );
     let mut w = world(&m, WorldConfig::default());
     let b = w.place_vehicle("SmallCar", "B_in", 98.5, 0.0).unwrap();

@@ -1,4 +1,4 @@
-//! Maps that do not mark every junction (`conflicts_outside_junctions`, as
+//! Maps that do not mark every junction (`road_conflicts: everywhere`, as
 //! Lanelet2 imports are): lanes that cross or run too close for two bodies
 //! outside any junction still keep their vehicles apart.
 
@@ -10,11 +10,16 @@ use trafficmesh_sim::{Ego, WorldConfig};
 
 /// `lanes` plus a junction lane far away (the start-up checklist wants one),
 /// with conflicts outside junctions on.
-fn unmarked_map(mut lanes: Vec<Value>) -> trafficmesh_model::MapFile {
+fn unmarked_map(lanes: Vec<Value>) -> trafficmesh_model::MapFile {
+    map_with_road_conflicts(lanes, "everywhere")
+}
+
+/// `lanes` plus a junction lane far away, with road conflicts `where`.
+fn map_with_road_conflicts(mut lanes: Vec<Value>, r#where: &str) -> trafficmesh_model::MapFile {
     let mut far = lane("far_junction", &[[5000.0, 5000.0], [5020.0, 5000.0]], &[]);
     far["intersection"] = json!(true);
     lanes.push(far);
-    map(lanes, json!({ "conflicts_outside_junctions": true }))
+    map(lanes, json!({ "road_conflicts": r#where }))
 }
 
 #[test]
@@ -339,4 +344,143 @@ fn two_cars_meeting_on_a_narrow_two_way_bend_squeeze_past_each_other() {
         5.0,
     );
     assert_eq!(w.wait_stats().gridlocks_squeezed, 1, "they squeezed past");
+}
+
+/// A two-way street of a SUMO network, each way one lane 3.2 m wide, their
+/// centrelines 3.2 m apart, kinked by 8° and 17° (Bologna's edges 9 and 10,
+/// between junctions 6 and 8): two trucks (3.08 m wide) pass each other on
+/// the straight, not where the kinks swing their bodies out. SUMO imports
+/// mark such stretches (`road_conflicts: opposing`).
+fn two_way_kinked_street(road_conflicts: &str) -> trafficmesh_model::MapFile {
+    map_with_road_conflicts(kinked_street_lanes(), road_conflicts)
+}
+
+/// The street above with a junction lane 10 m long at its west end, into
+/// the eastbound way, as SUMO models every junction.
+fn kinked_street_after_a_junction() -> trafficmesh_model::MapFile {
+    let mut lanes = kinked_street_lanes();
+    lanes[0] = lane(
+        "east_in",
+        &[[246.97, 127.07], [286.55, 132.83]],
+        &["east_junction"],
+    );
+    let mut junction = lane(
+        "east_junction",
+        &[[286.55, 132.83], [296.47, 134.27]],
+        &["east"],
+    );
+    junction["intersection"] = json!(true);
+    lanes.push(junction);
+    for lane in &mut lanes {
+        lane["width"] = json!(3.2);
+    }
+    map_with_road_conflicts(lanes, "opposing")
+}
+
+/// The lanes of [`two_way_kinked_street`], each 3.2 m wide.
+fn kinked_street_lanes() -> Vec<Value> {
+    let with_width = |mut lane: Value| {
+        lane["width"] = json!(3.2);
+        lane
+    };
+    let lanes = vec![
+        lane("east_in", &[[246.97, 127.07], [296.47, 134.27]], &["east"]),
+        lane(
+            "east",
+            &[
+                [296.47, 134.27],
+                [308.15, 135.97],
+                [326.41, 135.29],
+                [380.95, 117.92],
+                [386.52, 116.14],
+            ],
+            &["east_out"],
+        ),
+        lane("east_out", &[[386.52, 116.14], [434.1, 100.94]], &[]),
+        lane("west_in", &[[435.09, 103.98], [387.49, 119.18]], &["west"]),
+        lane(
+            "west",
+            &[
+                [387.49, 119.18],
+                [381.93, 120.96],
+                [326.97, 138.47],
+                [307.97, 139.17],
+                [296.0, 137.43],
+            ],
+            &["west_out"],
+        ),
+        lane("west_out", &[[296.0, 137.43], [246.5, 130.23]], &[]),
+    ];
+    lanes.into_iter().map(with_width).collect()
+}
+
+/// Two trucks meeting head-on where the street kinks take turns, as on a
+/// narrow bridge: the one that gets there first goes through, the other
+/// waits before the stretch until it has passed. Without the marked stretch
+/// each drove in, their bodies met, and the gridlock valve had to part them.
+#[test]
+fn two_trucks_meeting_where_a_two_way_street_kinks_take_turns() {
+    for config in [WorldConfig::default(), at_sumo_ticks_and_lane_limits()] {
+        for east_at in [0.0, 20.0, 40.0] {
+            for west_at in [0.0, 20.0, 40.0] {
+                for (v_east, v_west) in [(13.9, 13.9), (0.0, 13.9), (13.9, 5.0)] {
+                    let mut w = world(&two_way_kinked_street("opposing"), config);
+                    let east = w.place_vehicle("Truck_2t", "east_in", east_at, v_east);
+                    let west = w.place_vehicle("Truck_2t", "west_in", west_at, v_west);
+                    let what = format!(
+                        "dt {}: east at {east_at} m, {v_east} m/s; west at {west_at} m, {v_west} m/s",
+                        config.dt
+                    );
+                    both_get_through(
+                        &mut w,
+                        &what,
+                        [(east.unwrap(), "east_out"), (west.unwrap(), "west_out")],
+                        20.0,
+                    );
+                    assert_eq!(w.wait_stats().gridlocks_squeezed, 0, "{what}: no squeezing");
+                }
+            }
+        }
+    }
+}
+
+/// Where the map models its junctions, a truck about to come out of one
+/// into a narrow stretch that a truck coming the other way goes through
+/// first waits before the junction, not inside it, where it would stand in
+/// the way of the junction's own traffic.
+#[test]
+fn a_truck_waits_for_a_narrow_stretch_before_the_junction_not_inside_it() {
+    let mut waited_before = 0;
+    for config in [WorldConfig::default(), at_sumo_ticks_and_lane_limits()] {
+        for east_at in [0.0, 10.0, 20.0] {
+            for west_at in [20.0, 30.0, 40.0] {
+                let mut w = world(&kinked_street_after_a_junction(), config);
+                let east = w.place_vehicle("Truck_2t", "east_in", east_at, 13.9);
+                let west = w.place_vehicle("Truck_2t", "west", west_at, 13.9);
+                let (east, west) = (east.unwrap(), west.unwrap());
+                let before = w.network().lane_id("east_in").unwrap();
+                let what = format!("dt {}: east at {east_at} m, west at {west_at} m", config.dt);
+                let mut stood_before = false;
+                let done = run_until(&mut w, 120.0, |w| {
+                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                    assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
+                    // Standing anywhere past the junction's entry, part of
+                    // its body would be in the junction (10 m long; the
+                    // stretch begins 7.5 m after it).
+                    if let Some(v) = w.vehicle(east).filter(|v| v.speed < 0.1) {
+                        assert_eq!(v.path[0], before, "{what}: stands in the junction");
+                        stood_before = true;
+                    }
+                    w.vehicle(east).is_none() && w.vehicle(west).is_none()
+                });
+                assert!(done, "{what}: both are through within two minutes");
+                assert_eq!(w.wait_stats().jam_resolutions, 0, "{what}");
+                waited_before += usize::from(stood_before);
+            }
+        }
+    }
+    assert!(
+        waited_before > 0,
+        "in some of the runs the truck had to wait"
+    );
 }

@@ -3,7 +3,7 @@
 //! conflict zone of the path, the ego, or a full exit lane beyond a junction.
 
 use glam::DVec2;
-use trafficmesh_model::LightColor;
+use trafficmesh_model::{LightColor, RoadConflicts};
 
 use super::Snapshot;
 use super::path::{lanes_ahead, needed_lookahead};
@@ -72,21 +72,34 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     // Where the junction ahead begins: a movement through several junction
     // lanes whose exit is blocked waits before the first, not inside the box.
     let mut box_entry = f64::INFINITY;
+    // Where the junction just before this lane began, and whether the road
+    // lane before that junction holds our body.
+    let mut junction_behind = None;
+    let (mut road_before, mut room_before_box) = (f64::INFINITY, false);
     for (k, lane, offset) in lanes_ahead(net, v) {
         if !net.lane(lane).intersection {
+            // No room to wait before it: as good as in it (committed).
+            let wait_at = if room_before_box { box_entry } else { 0.0 };
+            junction_behind = box_entry.is_finite().then_some(wait_at);
             box_entry = f64::INFINITY;
+            road_before = net.lane(lane).length();
         } else if box_entry.is_infinite() {
             box_entry = offset;
+            room_before_box = road_before >= v.length;
         }
         if offset > search.range || offset > best.distance {
             break;
         }
         let ahead = LaneAhead { lane, offset };
         best = best.nearer(search.leader_on(ahead));
-        best = best.nearer(search.conflicting_bodies(ahead, best.distance));
+        let mut crossing = search.conflicting_bodies(ahead, best.distance);
         if net.lane(lane).road_conflicts && !search.squeezing {
-            best = best.nearer(search.nearer_claimant(ahead, best.distance));
+            crossing = crossing.nearer(search.nearer_claimant(ahead, crossing.distance));
         }
+        if !net.lane(lane).intersection {
+            crossing = out_of_modelled_junction(net, crossing, junction_behind);
+        }
+        best = best.nearer(crossing);
         if k >= 1
             && !on_intersection
             && net.lane(lane).intersection
@@ -347,12 +360,19 @@ impl Search<'_, '_> {
         let (net, v) = (self.snap.net, self.v);
         let ours = v.body(0.0);
         let mut zones: Vec<(f64, f64)> = Vec::new();
+        let modelled_junctions = net.road_conflicts == RoadConflicts::Opposing;
+        let mut after_junction = false;
         for (_, lane, offset) in lanes_ahead(net, v) {
             if offset >= stop_at {
                 break;
             }
             let l = net.lane(lane);
-            if !l.road_conflicts {
+            if l.intersection {
+                after_junction = true;
+            }
+            // Moved back into a junction the map models, the vehicle
+            // would stand in its traffic's way (see out_of_modelled_junction).
+            if !l.road_conflicts || (modelled_junctions && after_junction) {
                 continue;
             }
             for c in l.conflicts.iter().filter(|c| c.road && !c.parallel) {
@@ -389,6 +409,35 @@ impl Search<'_, '_> {
         w.speed < super::deadlock::STOPPED_SPEED
             && w.distance_to_front <= to_zone + ZONE_WAIT_TOLERANCE
             && self.v.id < w.id
+    }
+}
+
+/// Where a map models its junctions (`RoadConflicts::Opposing`), road zones
+/// lie only between road lanes, and one just past a junction is waited for
+/// before the junction (`entry` metres ahead, where the lane before holds
+/// the body), never inside it, where the vehicle would block the junction's
+/// own traffic. Once in, or where the lane before is too short to wait on
+/// (between the junctions of a roundabout's ring, a few metres apart: the
+/// vehicle would stand in the junction behind it, and a ring waiting at its
+/// own entries stands still), the vehicle is committed and the clearance
+/// check alone keeps the bodies apart.
+fn out_of_modelled_junction(
+    net: &LaneNetwork,
+    found: FrontObstacle,
+    entry: Option<f64>,
+) -> FrontObstacle {
+    match entry {
+        Some(entry) if found.vehicle.is_some() && net.road_conflicts == RoadConflicts::Opposing => {
+            if entry > 0.0 {
+                FrontObstacle {
+                    distance: entry,
+                    ..found
+                }
+            } else {
+                FrontObstacle::NONE
+            }
+        }
+        _ => found,
     }
 }
 

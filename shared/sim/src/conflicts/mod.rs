@@ -5,15 +5,18 @@
 //! this way, once, at load time; at run time a vehicle only looks at the lanes
 //! its own path conflicts with. Between two intersection lanes the junction's
 //! right of way orders the vehicles. Maps that do not mark every junction
-//! (`conflicts_outside_junctions`: Lanelet2 imports) also get "road" conflicts
-//! between any lanes whose vehicles could touch: there the vehicle nearer the
-//! zone goes first.
+//! (`RoadConflicts::Everywhere`: Lanelet2 imports) also get "road" conflicts
+//! between any lanes whose vehicles could touch, and maps whose streets may
+//! lie closer than two trucks need to pass (`RoadConflicts::Opposing`: SUMO
+//! imports) between road lanes running the other way: there the vehicle
+//! nearer the zone goes first.
 
 mod link;
 mod sweep;
 
 use glam::DVec2;
 use rustc_hash::FxHashMap;
+use trafficmesh_model::RoadConflicts;
 
 use crate::geometry::segments_intersect;
 use crate::network::{Lane, LaneId};
@@ -27,6 +30,11 @@ pub const CONFLICT_DISTANCE: f64 = 2.6;
 /// (see [`bodies_pass`]).
 pub const ROAD_CONFLICT_DISTANCE: f64 = 3.1;
 const SAMPLE_STEP: f64 = 0.5;
+/// Road zones of one pair of lanes closer together than this along the lane
+/// are one zone: a stretch between them shorter than a truck gives a vehicle
+/// no room to wait there, and two bodies meeting there, each in a zone the
+/// other is bound for, could neither go on nor back.
+const ROAD_ZONE_JOIN: f64 = 10.0;
 const GRID_CELL: f64 = 40.0;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,6 +131,7 @@ fn close_intervals(
     (ia, ib): (usize, usize),
     road: bool,
     link: Option<Link>,
+    rules: ZoneRules,
 ) -> Vec<(f64, f64, Gap)> {
     let (a, b) = (&lanes[ia], &lanes[ib]);
     let len = a.length();
@@ -136,10 +145,17 @@ fn close_intervals(
         let t = b.line.project(p);
         let distance = b.line.distance_to(p);
         let (reach, gap) = if road {
+            let q = b.line.point_at(t).0;
+            // Toward the other lane, or no side (a swing either way counts).
+            let (here, other) = if rules.sided {
+                (q - p, p - q)
+            } else {
+                (DVec2::ZERO, DVec2::ZERO)
+            };
             let gap = Gap {
                 distance,
-                sweep_here: sweep(lanes, ia, s),
-                sweep_other: sweep(lanes, ib, t),
+                sweep_here: sweep(lanes, ia, s, here, rules.junction_turns),
+                sweep_other: sweep(lanes, ib, t, other, rules.junction_turns),
             };
             (
                 ROAD_CONFLICT_DISTANCE + gap.sweep_here + gap.sweep_other,
@@ -164,7 +180,58 @@ fn close_intervals(
     if let Some((s0, gap)) = open {
         out.push((s0, len, gap));
     }
+    if road && rules.join_near_zones {
+        join_near_zones(&mut out);
+    }
     out
+}
+
+/// How road zones are drawn, by the map's kind of road conflicts.
+#[derive(Clone, Copy, Debug)]
+struct ZoneRules {
+    /// The turn onto or off a junction lane widens a zone (see [`sweep`]).
+    junction_turns: bool,
+    /// A bend widens a zone only where it swings the body toward the other
+    /// lane.
+    sided: bool,
+    /// Zones less than [`ROAD_ZONE_JOIN`] apart are one.
+    join_near_zones: bool,
+}
+
+impl ZoneRules {
+    /// Where junctions are guessed (Lanelet2), lanelets also cross, fold
+    /// back and join outside them: every turn counts, either way, and the
+    /// zones stay as found (breaking a gridlock there by squeezing past is
+    /// measured on them). Where the map models its junctions (SUMO), the
+    /// junction's rules see to the turns through it; the zones left are two
+    /// ways of one street, where which way a bend swings a body is plain,
+    /// and a truck waits for the whole narrow stretch.
+    fn of(roads: RoadConflicts) -> ZoneRules {
+        let guessed = roads == RoadConflicts::Everywhere;
+        ZoneRules {
+            junction_turns: guessed,
+            sided: !guessed,
+            join_near_zones: !guessed,
+        }
+    }
+}
+
+/// Joins consecutive zones less than [`ROAD_ZONE_JOIN`] apart, keeping the
+/// gap where the room is least.
+fn join_near_zones(zones: &mut Vec<(f64, f64, Gap)>) {
+    let mut joined: Vec<(f64, f64, Gap)> = Vec::with_capacity(zones.len());
+    for &(s0, s1, gap) in zones.iter() {
+        match joined.last_mut() {
+            Some(last) if s0 - last.1 < ROAD_ZONE_JOIN => {
+                last.1 = s1;
+                if gap.room() < last.2.room() {
+                    last.2 = gap;
+                }
+            }
+            _ => joined.push((s0, s1, gap)),
+        }
+    }
+    *zones = joined;
 }
 
 /// Do the centrelines come within `reach` anywhere? (Cheap: segment pairs,
@@ -217,15 +284,16 @@ fn bounding_cells(lane: &Lane, margin: f64) -> impl Iterator<Item = (i64, i64)> 
     (x0..=x1).flat_map(move |x| (y0..=y1).map(move |y| (x, y)))
 }
 
-/// Fills every intersection lane's conflicts and junction id, and with
-/// `outside_junctions` the road conflicts of every lane; returns the junction
-/// count.
-pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool) -> u32 {
+/// Fills every intersection lane's conflicts and junction id, and the road
+/// conflicts that `roads` asks for; returns the junction count.
+pub fn find_conflicts_and_junctions(lanes: &mut [Lane], roads: RoadConflicts) -> u32 {
+    let outside_junctions = roads == RoadConflicts::Everywhere;
+    let rules = ZoneRules::of(roads);
     let inter: Vec<usize> = (0..lanes.len())
         .filter(|&i| lanes[i].intersection)
         .collect();
     let mut grid: FxHashMap<(i64, i64), Vec<usize>> = FxHashMap::default();
-    let (candidates, margin): (Vec<usize>, f64) = if outside_junctions {
+    let (candidates, margin): (Vec<usize>, f64) = if !roads.is_none() {
         (
             (0..lanes.len()).collect(),
             ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP,
@@ -259,6 +327,10 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
     for (a, b) in pairs {
         let (la, lb) = (&lanes[a], &lanes[b]);
         let mut road = !(la.intersection && lb.intersection);
+        let opposing_only = road && roads == RoadConflicts::Opposing;
+        if opposing_only && (la.intersection || lb.intersection) {
+            continue;
+        }
         let reach = if road || outside_junctions {
             ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP
         } else {
@@ -268,18 +340,18 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             continue;
         }
         let link = link(lanes, a, b);
-        let mut on_a = close_intervals(lanes, (a, b), road, link);
+        let mut on_a = close_intervals(lanes, (a, b), road, link, rules);
         if on_a.is_empty() && !road && outside_junctions {
             // Junction lanes side by side (a double turn): too far apart to
             // cross, not for a long body swinging out. No rule orders the two:
             // a road conflict, passed by bodies that fit.
             road = true;
-            on_a = close_intervals(lanes, (a, b), road, link);
+            on_a = close_intervals(lanes, (a, b), road, link, rules);
         }
         if on_a.is_empty() {
             continue;
         }
-        let on_b = close_intervals(lanes, (b, a), road, link.map(Link::reversed));
+        let on_b = close_intervals(lanes, (b, a), road, link.map(Link::reversed), rules);
         let mut found = Vec::new();
         for &(a0, a1, gap_a) in &on_a {
             let mid_a = la.line.point_at((a0 + a1) * 0.5).0;
@@ -292,6 +364,9 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], outside_junctions: bool)
             };
             let cos = heading_at(la, (a0 + a1) * 0.5).dot(heading_at(lb, (b0 + b1) * 0.5));
             let parallel = cos > std::f64::consts::FRAC_1_SQRT_2;
+            if opposing_only && cos > -std::f64::consts::FRAC_1_SQRT_2 {
+                continue;
+            }
             // Where the room is least, seen from either lane.
             let gap = if gap_a.room() <= gap_b.room() {
                 gap_a

@@ -134,3 +134,16 @@ pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
         .map(|(i, j)| (vehicles[i].id, vehicles[j].id))
         .collect()
 }
+
+/// Ten ticks a second, as SUMO scenarios run (a body changing lanes moves
+/// across by 10 to 20 cm a tick), each vehicle at its lane's limit.
+pub fn at_sumo_ticks_and_lane_limits() -> WorldConfig {
+    WorldConfig {
+        vehicle: trafficmesh_model::NpcVehicleConfig {
+            speed_limit_source: trafficmesh_model::SpeedLimitSource::LaneletSpeedLimit,
+            ..Default::default()
+        },
+        dt: 0.1,
+        ..WorldConfig::default()
+    }
+}
