@@ -14,6 +14,7 @@ use http::{Api, Auth};
 use serde_json::{Value, json};
 use support::*;
 use trafficmesh_protocol::wire::{Agent, AgentBatch, Event, EventBatch};
+use trafficmesh_testkit::ClusterSpec;
 
 fn api(cluster: &Cluster) -> Api {
     Api::new(cluster.admin.as_ref().unwrap())
@@ -932,4 +933,81 @@ fn live_map_check(python: &str, browser: &str, cluster: &Cluster, extra: &[&str]
         out.status.success() && stdout.contains("OK"),
         "live map check failed:\n{stdout}\n{stderr}"
     );
+}
+
+/// The walkers' walk signals follow the lights service, overrides included:
+/// with both groups of the four-way forced green for the cars no walker
+/// starts across its crosswalks (on the map's program they would, twice a
+/// minute each); forced red, walkers start again.
+#[test]
+fn walk_signals_follow_the_light_overrides() {
+    let cluster = Cluster::launch_spec(ClusterSpec {
+        seed: 7,
+        stepper: "speed = 4".into(),
+        spawner: "max_vehicles = 2".into(),
+        pedestrians: true,
+        admin_token: Some(TOKEN.into()),
+        ..Cluster::spec("walkoverride", &four_way())
+    });
+    cluster.wait_for_admin();
+    let api = api(&cluster);
+    let force_both = |color: &str| {
+        for group in ["J0_0_EW", "J0_0_NS"] {
+            let r = api.json(
+                "POST",
+                &format!("/api/v1/lights/{group}/override"),
+                TOKEN,
+                &json!({ "color": color }),
+            );
+            assert_eq!(r.status, 200, "{}", r.body);
+        }
+    };
+    runtime().block_on(async {
+        let bus = cluster.client().await;
+        let walkers = bus.subscribe_to(&topics::AGENTS).await.unwrap();
+        // The walkers' batches from `from` simulated seconds after the first
+        // one received, for `span` seconds: the ids present at the start, and
+        // those that started later.
+        let watch = |from: f64, span: f64| {
+            let (bus, walkers, cluster) = (&bus, &walkers, &cluster);
+            async move {
+                let deadline = Instant::now() + Duration::from_secs(60);
+                let (mut start, mut present, mut started) = (None, None, Vec::new());
+                while Instant::now() < deadline {
+                    let next = tokio::time::timeout(Duration::from_secs(5), walkers.next(bus));
+                    let Ok(Some((source, batch))) = next.await else {
+                        panic!("no walkers' batch within 5 s:\n{}", cluster.log());
+                    };
+                    if source != "pedestrians" {
+                        continue;
+                    }
+                    let begin = *start.get_or_insert(batch.time + from);
+                    if batch.time < begin {
+                        continue;
+                    }
+                    let ids: Vec<String> = batch.agents.iter().map(|a| a.id.clone()).collect();
+                    let before: &Vec<String> = present.get_or_insert(ids.clone());
+                    started.extend(ids.into_iter().filter(|id| !before.contains(id)));
+                    if batch.time >= begin + span {
+                        started.sort();
+                        started.dedup();
+                        return started;
+                    }
+                }
+                panic!("the walkers' clock did not run {span} s within 60 s");
+            }
+        };
+        force_both("green");
+        // A second for the lights' word to reach the walkers, then 70 s: on
+        // the map's program each crosswalk shows its walk signal for half of
+        // every 66 s cycle.
+        let started = watch(1.0, 70.0).await;
+        assert!(
+            started.is_empty(),
+            "walkers started against a forced green: {started:?}"
+        );
+        force_both("red");
+        let started = watch(1.0, 40.0).await;
+        assert!(!started.is_empty(), "no walker started on a forced red");
+    });
 }

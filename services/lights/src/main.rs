@@ -62,12 +62,18 @@ impl Groups {
 
     fn state(&self, g: usize) -> LightState {
         let s = self.lights.state(g);
+        let map_group = &self.net.light_groups[g];
+        let control = self.lights.control(g);
         LightState {
-            group: self.net.light_groups[g].name.clone(),
+            group: map_group.name.clone(),
             color: s.color,
             next_change: s.next_change.is_finite().then_some(s.next_change),
             valid_until: self.vouch.valid_until(self.time),
-            forced: matches!(self.lights.control(g), LightControl::Forced(_)),
+            forced: matches!(control, LightControl::Forced(_)),
+            program: match control {
+                LightControl::Program(p) if p != map_group.program => Some(p),
+                _ => None,
+            },
         }
     }
 }

@@ -9,11 +9,11 @@ use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
 use trafficmesh_model::LightProgram;
-use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LockstepTick};
+use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LightState, LockstepTick};
 use trafficmesh_protocol::{Keys, topics};
 use trafficmesh_service::settings::PedestriansSettings;
 use trafficmesh_service::{Service, ServiceArgs};
-use trafficmesh_sim::lights::program_state;
+use trafficmesh_sim::lights::{LightControl, Lights};
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
 #[derive(Parser)]
@@ -33,24 +33,57 @@ struct Args {
     settings: PedestriansSettings,
 }
 
-/// The walkers, the signal programs their walk signals follow, and the last
+/// The walkers, the light groups their walk signals follow, and the last
 /// time they were published.
 struct Walkers {
     people: Pedestrians,
-    programs: Vec<LightProgram>,
+    /// Each group run as the lights service runs it: the map's program (so
+    /// that walkers agree with it in lockstep too, tick for tick) until an
+    /// override it publishes forces a colour or sets another program.
+    lights: Lights,
+    /// Group names and the map's programs, to read the lights' states by.
+    groups: Vec<(String, LightProgram)>,
+    stepped: f64,
     last: Option<f64>,
 }
 
 impl Walkers {
-    /// Walks on to `time`, each walk signal read from the programs (the
-    /// lights service's own, so walkers agree with it in lockstep too).
+    /// Walks on to `time`, each walk signal read from the groups' lights.
     fn step(&mut self, time: f64, dt: f64) {
-        let programs = &self.programs;
-        self.people.step(time, dt, |g| {
-            program_state(&programs[g as usize], time).color
-        });
+        self.stepped = time;
+        self.lights.update(time);
+        let lights = &self.lights;
+        self.people
+            .step(time, dt, |g| lights.state(g as usize).color);
+    }
+
+    /// Takes up what the lights service says a group is doing: forced to a
+    /// colour, on an admin's program, or back on the map's.
+    fn follow(&mut self, state: &LightState) {
+        let Some(g) = self
+            .groups
+            .iter()
+            .position(|(name, _)| *name == state.group)
+        else {
+            return;
+        };
+        let control = if state.forced {
+            LightControl::Forced(state.color)
+        } else {
+            LightControl::Program(state.program.unwrap_or(self.groups[g].1))
+        };
+        if self.lights.control(g) != control {
+            tracing::info!(
+                "walk signals of light group '{}' follow {control:?}",
+                state.group
+            );
+            self.lights.set_control(g, control, self.stepped);
+        }
     }
 }
+
+/// How long the states in force are asked for at start.
+const LATE_STATES_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
 
 struct PedestriansService {
     walkers: Mutex<Walkers>,
@@ -84,7 +117,13 @@ fn main() -> ExitCode {
         let service = PedestriansService {
             walkers: Mutex::new(Walkers {
                 people: Pedestrians::new(&net.crosswalks, config, args.seed),
-                programs: net.light_groups.iter().map(|g| g.program).collect(),
+                lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
+                groups: net
+                    .light_groups
+                    .iter()
+                    .map(|g| (g.name.clone(), g.program))
+                    .collect(),
+                stepped: 0.0,
                 last: None,
             }),
         };
@@ -101,6 +140,24 @@ impl PedestriansService {
 impl Service for PedestriansService {
     const NAME: &'static str = "pedestrians";
     type Answer = AgentBatch;
+
+    async fn start(self: &Arc<Self>, bus: &Arc<Bus>) -> Result<()> {
+        let states = bus.subscribe_to(&topics::LIGHT_STATE).await?;
+        let (bus, service) = (bus.clone(), self.clone());
+        tokio::spawn(async move {
+            // The overrides in force before this service started, then
+            // every change.
+            let all = bus.keys().key_all(&topics::LIGHT_STATE);
+            let current = bus.get_each::<LightState>(&all, LATE_STATES_WAIT).await;
+            for s in current.unwrap_or_default() {
+                service.walkers().follow(&s);
+            }
+            while let Some((_, s)) = states.next(&bus).await {
+                service.walkers().follow(&s);
+            }
+        });
+        Ok(())
+    }
 
     fn status(&self) -> (f64, serde_json::Value) {
         let w = self.walkers();

@@ -17,6 +17,11 @@ pub struct LightState {
     /// Until when this state may be used; after it, a stepper counts the group red.
     pub valid_until: f64,
     pub forced: bool,
+    /// The program an override put the group on; absent while it runs the
+    /// map's own (or is forced). Lets other services that follow the
+    /// signals (the walkers' walk signals) keep to the same program.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub program: Option<LightProgram>,
 }
 
 /// `<cluster>/lights/heartbeat` and `<cluster>/crosswalks/heartbeat`: extends the
