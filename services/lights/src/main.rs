@@ -63,17 +63,14 @@ impl Groups {
     fn state(&self, g: usize) -> LightState {
         let s = self.lights.state(g);
         let map_group = &self.net.light_groups[g];
-        let control = self.lights.control(g);
+        let (forced, program) = self.lights.control(g).as_override(map_group.program);
         LightState {
             group: map_group.name.clone(),
             color: s.color,
             next_change: s.next_change.is_finite().then_some(s.next_change),
             valid_until: self.vouch.valid_until(self.time),
-            forced: matches!(control, LightControl::Forced(_)),
-            program: match control {
-                LightControl::Program(p) if p != map_group.program => Some(p),
-                _ => None,
-            },
+            forced: forced.is_some(),
+            program,
         }
     }
 }
@@ -253,15 +250,13 @@ fn apply_override(g: &mut Groups, o: &LightOverride) -> Result<LightState, Strin
         .net
         .light_group(&o.group)
         .ok_or_else(|| format!("unknown light group '{}'", o.group))?;
-    let control = match (o.color, o.program) {
-        (Some(_), Some(_)) => return Err("give either color or program, not both".into()),
-        (Some(color), None) => LightControl::Forced(color),
-        (None, Some(p)) => {
-            check_program(&p)?;
-            LightControl::Program(p)
-        }
-        (None, None) => LightControl::Program(g.net.light_groups[i].program),
-    };
+    if o.color.is_some() && o.program.is_some() {
+        return Err("give either color or program, not both".into());
+    }
+    if let Some(p) = &o.program {
+        check_program(p)?;
+    }
+    let control = LightControl::from_override(o.color, o.program, g.net.light_groups[i].program);
     let t = g.time;
     g.lights.set_control(i, control, t);
     g.published[i] = Some(g.lights.state(i).color);

@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{Context, Result};
 use trafficmesh_protocol::wire::LightOverride;
 use trafficmesh_sim::LaneNetwork;
-use trafficmesh_sim::lights::{LightControl, Lights};
+use trafficmesh_sim::lights::Lights;
 
 /// The overrides saved in `path` (none when there is no file yet). Entries for
 /// groups this map does not have are left out with a warning: the next save
@@ -45,12 +45,8 @@ pub fn in_force(net: &LaneNetwork, lights: &Lights) -> Vec<LightOverride> {
         .iter()
         .enumerate()
         .filter_map(|(i, g)| {
-            let (color, program) = match lights.control(i) {
-                LightControl::Forced(c) => (Some(c), None),
-                LightControl::Program(p) if p != g.program => (None, Some(p)),
-                _ => return None,
-            };
-            Some(LightOverride {
+            let (color, program) = lights.control(i).as_override(g.program);
+            (color.is_some() || program.is_some()).then(|| LightOverride {
                 group: g.name.clone(),
                 color,
                 program,

@@ -8,12 +8,12 @@ use std::sync::{Arc, Mutex, MutexGuard};
 use anyhow::Result;
 use clap::Parser;
 use trafficmesh_bus::{Bus, runtime};
-use trafficmesh_model::LightProgram;
 use trafficmesh_protocol::wire::{Agent, AgentBatch, Clock, LightState, LockstepTick};
 use trafficmesh_protocol::{Keys, topics};
 use trafficmesh_service::settings::PedestriansSettings;
 use trafficmesh_service::{Service, ServiceArgs};
 use trafficmesh_sim::lights::{LightControl, Lights};
+use trafficmesh_sim::network::LightGroup;
 use trafficmesh_sim::pedestrians::{PedestrianConfig, Pedestrians};
 
 #[derive(Parser)]
@@ -41,16 +41,14 @@ struct Walkers {
     /// that walkers agree with it in lockstep too, tick for tick) until an
     /// override it publishes forces a colour or sets another program.
     lights: Lights,
-    /// Group names and the map's programs, to read the lights' states by.
-    groups: Vec<(String, LightProgram)>,
-    stepped: f64,
+    /// The map's groups, to read the lights' states by.
+    groups: Vec<LightGroup>,
     last: Option<f64>,
 }
 
 impl Walkers {
     /// Walks on to `time`, each walk signal read from the groups' lights.
     fn step(&mut self, time: f64, dt: f64) {
-        self.stepped = time;
         self.lights.update(time);
         let lights = &self.lights;
         self.people
@@ -60,30 +58,23 @@ impl Walkers {
     /// Takes up what the lights service says a group is doing: forced to a
     /// colour, on an admin's program, or back on the map's.
     fn follow(&mut self, state: &LightState) {
-        let Some(g) = self
-            .groups
-            .iter()
-            .position(|(name, _)| *name == state.group)
-        else {
+        let Some(g) = self.groups.iter().position(|g| g.name == state.group) else {
             return;
         };
-        let control = if state.forced {
-            LightControl::Forced(state.color)
-        } else {
-            LightControl::Program(state.program.unwrap_or(self.groups[g].1))
-        };
+        let forced = state.forced.then_some(state.color);
+        let control = LightControl::from_override(forced, state.program, self.groups[g].program);
         if self.lights.control(g) != control {
             tracing::info!(
                 "walk signals of light group '{}' follow {control:?}",
                 state.group
             );
-            self.lights.set_control(g, control, self.stepped);
+            // Programs run on absolute time and a forced colour on none: set
+            // at the last step, the next step reads the group right.
+            self.lights
+                .set_control(g, control, self.last.unwrap_or(0.0));
         }
     }
 }
-
-/// How long the states in force are asked for at start.
-const LATE_STATES_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
 
 struct PedestriansService {
     walkers: Mutex<Walkers>,
@@ -118,12 +109,7 @@ fn main() -> ExitCode {
             walkers: Mutex::new(Walkers {
                 people: Pedestrians::new(&net.crosswalks, config, args.seed),
                 lights: Lights::new(net.light_groups.iter().map(|g| g.program)),
-                groups: net
-                    .light_groups
-                    .iter()
-                    .map(|g| (g.name.clone(), g.program))
-                    .collect(),
-                stepped: 0.0,
+                groups: net.light_groups.clone(),
                 last: None,
             }),
         };
@@ -148,7 +134,9 @@ impl Service for PedestriansService {
             // The overrides in force before this service started, then
             // every change.
             let all = bus.keys().key_all(&topics::LIGHT_STATE);
-            let current = bus.get_each::<LightState>(&all, LATE_STATES_WAIT).await;
+            let current = bus
+                .get_each::<LightState>(&all, trafficmesh_service::LATE_STATES_WAIT)
+                .await;
             for s in current.unwrap_or_default() {
                 service.walkers().follow(&s);
             }

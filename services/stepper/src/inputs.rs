@@ -233,7 +233,7 @@ pub fn catch_up_while_stale(bus: Arc<Bus>, tx: InputSender, shared: Arc<Shared>)
 
 pub async fn fetch_late_states(bus: &Bus, tx: &InputSender) {
     let keys = bus.keys();
-    let wait = Duration::from_millis(500);
+    let wait = trafficmesh_service::LATE_STATES_WAIT;
     let send = |key: String, command| {
         let _ = tx.send(Input { key, command });
     };

@@ -460,6 +460,13 @@ impl RoadConflicts {
     pub fn is_none(&self) -> bool {
         *self == RoadConflicts::None
     }
+
+    /// Road zones lie only between road lanes, past junctions the map
+    /// models with lanes of their own (`Opposing`): one just past a
+    /// junction is waited for before it.
+    pub fn between_roads_only(self) -> bool {
+        self == RoadConflicts::Opposing
+    }
 }
 
 impl<'de> Deserialize<'de> for RoadConflicts {

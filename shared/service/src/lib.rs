@@ -16,6 +16,10 @@ use trafficmesh_maps::FileError;
 use trafficmesh_protocol::wire::EgoPose;
 use trafficmesh_sim::{Ego, LaneNetwork, Pose};
 
+/// How long a service joining a running cluster waits for the answers to
+/// its query of the states in force (lights, crosswalk occupancy).
+pub const LATE_STATES_WAIT: std::time::Duration = std::time::Duration::from_millis(500);
+
 /// The ego as the simulation takes it, from its pose on the bus.
 pub fn ego_of(p: &EgoPose) -> Ego {
     Ego {

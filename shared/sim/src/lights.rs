@@ -55,6 +55,33 @@ pub enum LightControl {
     },
 }
 
+impl LightControl {
+    /// What an override sets (as the lights service takes and publishes
+    /// it): a forced colour, else a program; neither, the map's own
+    /// program `map`.
+    pub fn from_override(
+        color: Option<LightColor>,
+        program: Option<LightProgram>,
+        map: LightProgram,
+    ) -> LightControl {
+        match color {
+            Some(color) => LightControl::Forced(color),
+            None => LightControl::Program(program.unwrap_or(map)),
+        }
+    }
+
+    /// The inverse of [`Self::from_override`]: the colour forced, and the
+    /// program run where it is not the map's own `map`. (A received colour
+    /// is nobody's override: neither.)
+    pub fn as_override(&self, map: LightProgram) -> (Option<LightColor>, Option<LightProgram>) {
+        match *self {
+            LightControl::Forced(color) => (Some(color), None),
+            LightControl::Program(p) if p != map => (None, Some(p)),
+            _ => (None, None),
+        }
+    }
+}
+
 /// The state `control` gives at `t`, after `before`: a colour that did not
 /// change keeps its start (a program knows its own).
 fn evaluate(control: &LightControl, t: f64, before: Option<LightState>) -> LightState {
@@ -130,6 +157,29 @@ impl Lights {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_override_reads_back_as_it_was_given() {
+        let map = LightProgram {
+            green: 30.0,
+            yellow: 3.0,
+            red: 33.0,
+            offset: 0.0,
+        };
+        let other = LightProgram { green: 7.0, ..map };
+        for (color, program) in [
+            (Some(LightColor::Red), None),
+            (None, Some(other)),
+            (None, None),
+        ] {
+            let control = LightControl::from_override(color, program, map);
+            assert_eq!(control.as_override(map), (color, program));
+        }
+        // The map's own program, given as an override, is no override.
+        let control = LightControl::from_override(None, Some(map), map);
+        assert_eq!(control, LightControl::Program(map));
+        assert_eq!(control.as_override(map), (None, None));
+    }
 
     #[test]
     fn program_cycles_green_yellow_red_from_offset() {

@@ -3,7 +3,7 @@
 //! conflict zone of the path, the ego, or a full exit lane beyond a junction.
 
 use glam::DVec2;
-use trafficmesh_model::{LightColor, RoadConflicts};
+use trafficmesh_model::LightColor;
 
 use super::Snapshot;
 use super::path::{lanes_ahead, needed_lookahead};
@@ -72,20 +72,23 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
     // Where the junction ahead begins: a movement through several junction
     // lanes whose exit is blocked waits before the first, not inside the box.
     let mut box_entry = f64::INFINITY;
-    // Where the junction just before this lane began, and whether the road
-    // lane before that junction holds our body.
+    // Where a road zone just past the junction ahead is waited for (see
+    // out_of_modelled_junction): its entry where the road lane before it
+    // holds our body, else 0 (committed); and that of the junction just
+    // before the lane at hand.
+    let modelled_junctions = net.road_conflicts.between_roads_only();
+    let (mut road_before, mut box_wait) = (f64::INFINITY, 0.0);
     let mut junction_behind = None;
-    let (mut road_before, mut room_before_box) = (f64::INFINITY, false);
     for (k, lane, offset) in lanes_ahead(net, v) {
-        if !net.lane(lane).intersection {
-            // No room to wait before it: as good as in it (committed).
-            let wait_at = if room_before_box { box_entry } else { 0.0 };
-            junction_behind = box_entry.is_finite().then_some(wait_at);
+        let l = net.lane(lane);
+        if !l.intersection {
+            junction_behind = box_entry.is_finite().then_some(box_wait);
             box_entry = f64::INFINITY;
-            road_before = net.lane(lane).length();
+            road_before = l.length();
         } else if box_entry.is_infinite() {
             box_entry = offset;
-            room_before_box = road_before >= v.length;
+            box_wait = if road_before >= v.length { offset } else { 0.0 };
+            junction_behind = None;
         }
         if offset > search.range || offset > best.distance {
             break;
@@ -93,16 +96,16 @@ pub fn front_obstacle(snap: &Snapshot, i: usize) -> FrontObstacle {
         let ahead = LaneAhead { lane, offset };
         best = best.nearer(search.leader_on(ahead));
         let mut crossing = search.conflicting_bodies(ahead, best.distance);
-        if net.lane(lane).road_conflicts && !search.squeezing {
+        if l.road_conflicts && !search.squeezing {
             crossing = crossing.nearer(search.nearer_claimant(ahead, crossing.distance));
         }
-        if !net.lane(lane).intersection {
-            crossing = out_of_modelled_junction(net, crossing, junction_behind);
+        if modelled_junctions && let Some(entry) = junction_behind {
+            crossing = out_of_modelled_junction(crossing, entry);
         }
         best = best.nearer(crossing);
         if k >= 1
             && !on_intersection
-            && net.lane(lane).intersection
+            && l.intersection
             && let Some(exit) = exit_blocked_by(snap, v, k)
         {
             best = best.nearer(FrontObstacle {
@@ -360,7 +363,7 @@ impl Search<'_, '_> {
         let (net, v) = (self.snap.net, self.v);
         let ours = v.body(0.0);
         let mut zones: Vec<(f64, f64)> = Vec::new();
-        let modelled_junctions = net.road_conflicts == RoadConflicts::Opposing;
+        let modelled_junctions = net.road_conflicts.between_roads_only();
         let mut after_junction = false;
         for (_, lane, offset) in lanes_ahead(net, v) {
             if offset >= stop_at {
@@ -421,23 +424,14 @@ impl Search<'_, '_> {
 /// vehicle would stand in the junction behind it, and a ring waiting at its
 /// own entries stands still), the vehicle is committed and the clearance
 /// check alone keeps the bodies apart.
-fn out_of_modelled_junction(
-    net: &LaneNetwork,
-    found: FrontObstacle,
-    entry: Option<f64>,
-) -> FrontObstacle {
-    match entry {
-        Some(entry) if found.vehicle.is_some() && net.road_conflicts == RoadConflicts::Opposing => {
-            if entry > 0.0 {
-                FrontObstacle {
-                    distance: entry,
-                    ..found
-                }
-            } else {
-                FrontObstacle::NONE
-            }
-        }
-        _ => found,
+fn out_of_modelled_junction(found: FrontObstacle, entry: f64) -> FrontObstacle {
+    match found.vehicle {
+        Some(_) if entry > 0.0 => FrontObstacle {
+            distance: entry,
+            ..found
+        },
+        Some(_) => FrontObstacle::NONE,
+        None => found,
     }
 }
 

@@ -186,9 +186,17 @@ fn close_intervals(
     out
 }
 
-/// How road zones are drawn, by the map's kind of road conflicts.
+/// Where road zones are looked for and how they are drawn, by the map's
+/// kind of road conflicts.
 #[derive(Clone, Copy, Debug)]
 struct ZoneRules {
+    /// Road zones at all (else only the junctions' own conflicts).
+    roads: bool,
+    /// Only between two road lanes running the other way.
+    opposing_roads_only: bool,
+    /// Junction lanes side by side that do not cross (a double turn) get a
+    /// road zone where a long body swinging out reaches the other.
+    double_turns: bool,
     /// The turn onto or off a junction lane widens a zone (see [`sweep`]).
     junction_turns: bool,
     /// A bend widens a zone only where it swings the body toward the other
@@ -209,6 +217,9 @@ impl ZoneRules {
     fn of(roads: RoadConflicts) -> ZoneRules {
         let guessed = roads == RoadConflicts::Everywhere;
         ZoneRules {
+            roads: !roads.is_none(),
+            opposing_roads_only: roads.between_roads_only(),
+            double_turns: guessed,
             junction_turns: guessed,
             sided: !guessed,
             join_near_zones: !guessed,
@@ -287,13 +298,12 @@ fn bounding_cells(lane: &Lane, margin: f64) -> impl Iterator<Item = (i64, i64)> 
 /// Fills every intersection lane's conflicts and junction id, and the road
 /// conflicts that `roads` asks for; returns the junction count.
 pub fn find_conflicts_and_junctions(lanes: &mut [Lane], roads: RoadConflicts) -> u32 {
-    let outside_junctions = roads == RoadConflicts::Everywhere;
     let rules = ZoneRules::of(roads);
     let inter: Vec<usize> = (0..lanes.len())
         .filter(|&i| lanes[i].intersection)
         .collect();
     let mut grid: FxHashMap<(i64, i64), Vec<usize>> = FxHashMap::default();
-    let (candidates, margin): (Vec<usize>, f64) = if !roads.is_none() {
+    let (candidates, margin): (Vec<usize>, f64) = if rules.roads {
         (
             (0..lanes.len()).collect(),
             ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP,
@@ -327,11 +337,11 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], roads: RoadConflicts) ->
     for (a, b) in pairs {
         let (la, lb) = (&lanes[a], &lanes[b]);
         let mut road = !(la.intersection && lb.intersection);
-        let opposing_only = road && roads == RoadConflicts::Opposing;
+        let opposing_only = road && rules.opposing_roads_only;
         if opposing_only && (la.intersection || lb.intersection) {
             continue;
         }
-        let reach = if road || outside_junctions {
+        let reach = if road || rules.double_turns {
             ROAD_CONFLICT_DISTANCE + 2.0 * MAX_SWEEP
         } else {
             CONFLICT_DISTANCE
@@ -341,7 +351,7 @@ pub fn find_conflicts_and_junctions(lanes: &mut [Lane], roads: RoadConflicts) ->
         }
         let link = link(lanes, a, b);
         let mut on_a = close_intervals(lanes, (a, b), road, link, rules);
-        if on_a.is_empty() && !road && outside_junctions {
+        if on_a.is_empty() && !road && rules.double_turns {
             // Junction lanes side by side (a double turn): too far apart to
             // cross, not for a long body swinging out. No rule orders the two:
             // a road conflict, passed by bodies that fit.
