@@ -140,6 +140,7 @@ fn lane(name: String, waypoints: Vec<Point>, speed_limit: f64) -> LaneDef {
         traffic_light: None,
         right_of_way: Vec::new(),
         vehicle_classes: Vec::new(),
+        crosses_apart: Vec::new(),
     }
 }
 

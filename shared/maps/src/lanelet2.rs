@@ -316,6 +316,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
                 traffic_light: None,
                 right_of_way: Vec::new(),
                 vehicle_classes: Vec::new(),
+                crosses_apart: Vec::new(),
             }
         })
         .collect();

@@ -11,6 +11,7 @@ pub mod import;
 mod joints;
 mod lanelet2;
 mod sumo;
+mod sumo_levels;
 pub mod sumo_routes;
 pub mod sumocfg;
 

@@ -102,6 +102,7 @@ pub fn import_with_programs(
                 traffic_light: None,
                 right_of_way: Vec::new(),
                 vehicle_classes,
+                crosses_apart: Vec::new(),
             });
         }
     }
@@ -163,6 +164,13 @@ pub fn import_with_programs(
     if switchbacks > 0 {
         warnings.push(format!(
             "{switchbacks} lane joint(s) where the next lane starts heading back moved back along both lanes, to a corner a car can drive"
+        ));
+    }
+
+    let apart = crate::sumo_levels::mark_crossings_apart(net, &index, &mut lanes);
+    if apart > 0 {
+        warnings.push(format!(
+            "{apart} pair(s) of lanes cross with no junction between them: taken as a bridge over the other (as SUMO does), vehicles on the two never meet"
         ));
     }
 

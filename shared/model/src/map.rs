@@ -85,6 +85,11 @@ pub struct LaneDef {
     /// `bus`); empty: every class.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub vehicle_classes: Vec<String>,
+    /// Lanes this one crosses at another level, no junction between them (a
+    /// bridge over the other, or a tunnel under it): vehicles on the two
+    /// never meet. Either lane may list the other.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub crosses_apart: Vec<String>,
 }
 
 impl LaneDef {
@@ -651,6 +656,7 @@ impl MapFile {
                 ("next", &lane.next),
                 ("prev", &lane.prev),
                 ("right_of_way", &lane.right_of_way),
+                ("crosses_apart", &lane.crosses_apart),
             ] {
                 for other in list {
                     if !names.contains_key(&other.to_lowercase()) {

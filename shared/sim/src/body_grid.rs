@@ -9,7 +9,7 @@ use rayon::prelude::*;
 
 use crate::buckets::Buckets;
 use crate::geometry::Obb;
-use crate::network::LaneNetwork;
+use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::light_pass_len;
 use crate::vehicle::{BODY_TOLERANCE, Vehicle, VehicleId};
 
@@ -28,6 +28,23 @@ pub struct BodyBox {
     /// against each other, the one nearer its end goes first.
     pub to_leave_junction: f64,
     pub id: VehicleId,
+    /// The lane its front is on.
+    pub lane: LaneId,
+}
+
+impl BodyBox {
+    /// Whether this body can meet `other` at all: not at another height,
+    /// nor on a lane that crosses the other's at another level.
+    pub fn may_meet(&self, other: &BodyBox, net: &LaneNetwork) -> bool {
+        bodies_may_meet(net, (self.lane, self.z), (other.lane, other.z))
+    }
+}
+
+/// Whether bodies on lanes `a` and `b`, at heights `za` and `zb`, can meet:
+/// a bridge over a road keeps its bodies from the road's, whether the map
+/// gives heights or only says which lanes cross apart.
+pub fn bodies_may_meet(net: &LaneNetwork, (a, za): (LaneId, f64), (b, zb): (LaneId, f64)) -> bool {
+    (za - zb).abs() <= LEVELS_APART && !net.lanes_apart(a, b)
 }
 
 /// A body noted in the cell of its bounds' lowest corner: its bounds (with
@@ -88,6 +105,7 @@ impl BodyGrid {
                         swing: reach * (1.0 + obb.half_length.hypot(obb.half_width) / turn_radius),
                         to_leave_junction: to_leave_junction(net, v),
                         id: v.id,
+                        lane: v.path[0],
                     }
                 }),
         );
@@ -152,17 +170,17 @@ impl BodyGrid {
         }
     }
 
-    /// Whether a body placed at `obb` (height `z`) keeps clear of every
-    /// body as noted, each grown by what it can have covered in one tick:
-    /// read between two rebuilds (by spawning, before the lane index of
-    /// the tick), the bodies may have moved that far since.
-    pub fn clear_of_moved(&self, obb: &Obb, z: f64) -> bool {
+    /// Whether a body placed at `obb` on `lane` (height `z`) keeps clear of
+    /// every body as noted, each grown by what it can have covered in one
+    /// tick: read between two rebuilds (by spawning, before the lane index
+    /// of the tick), the bodies may have moved that far since.
+    pub fn clear_of_moved(&self, net: &LaneNetwork, obb: &Obb, (lane, z): (LaneId, f64)) -> bool {
         let (lo, hi) = obb.bounds();
         let mut clear = true;
         self.for_each_near(lo, hi, |j| {
             let other = &self.boxes[j as usize];
             if clear
-                && (other.z - z).abs() <= LEVELS_APART
+                && bodies_may_meet(net, (lane, z), (other.lane, other.z))
                 && obb.separation(&other.obb) <= other.swing
             {
                 clear = false;

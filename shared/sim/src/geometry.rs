@@ -1,7 +1,7 @@
 //! Plane geometry on polylines: arc length, interpolation, projection, intersection.
 
 use glam::DVec2;
-pub use trafficmesh_model::geometry::point_in_polygon;
+pub use trafficmesh_model::geometry::{point_in_polygon, segments_intersect};
 
 /// One polyline vertex with everything the per-tick code reads about it, in one
 /// place so that a look-up touches one cache line rather than five arrays.
@@ -191,19 +191,6 @@ impl Polyline {
 /// 2D cross product (z of the 3D cross): positive when b is to the left of a.
 pub fn cross(a: DVec2, b: DVec2) -> f64 {
     a.x * b.y - a.y * b.x
-}
-
-/// Inclusive segment intersection; parallel or collinear segments do not intersect.
-pub fn segments_intersect(a1: DVec2, b1: DVec2, a2: DVec2, b2: DVec2) -> bool {
-    let d1 = b1 - a1;
-    let d2 = b2 - a2;
-    let denom = cross(d1, d2);
-    if denom.abs() < 1e-12 {
-        return false;
-    }
-    let t = cross(a2 - a1, d2) / denom;
-    let u = cross(a2 - a1, d1) / denom;
-    (0.0..=1.0).contains(&t) && (0.0..=1.0).contains(&u)
 }
 
 /// Smallest absolute difference between two headings, radians in [0, π].

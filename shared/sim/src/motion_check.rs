@@ -10,7 +10,9 @@ use glam::DVec2;
 use trafficmesh_model::SpeedLimitSource;
 
 use crate::World;
+use crate::body_grid::bodies_may_meet;
 use crate::geometry::{angle_between, boxes_overlap};
+use crate::network::LaneNetwork;
 use crate::vehicle::{Vehicle, VehicleId};
 
 /// Metres a pose may move beyond its speed times the tick: rounding, and the
@@ -149,12 +151,38 @@ impl MotionCheck {
                 bound: crate::world::RED_GRACE,
             });
         }
-        for (a, b) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
+        for (a, b) in overlapping_pairs(net, world.vehicles(), OVERLAP_MARGIN) {
             let (va, vb) = (&world.vehicles()[a], &world.vehicles()[b]);
             // How deep the shrunk footprints reach into each other.
             let depth = -va
                 .drawn_box(OVERLAP_MARGIN)
                 .separation(&vb.drawn_box(OVERLAP_MARGIN));
+            if !self
+                .overlaps
+                .seen
+                .contains(&(va.id.min(vb.id), va.id.max(vb.id)))
+            {
+                let show = |v: &Vehicle| {
+                    format!(
+                        "#{} {:?} {} s={:.1} ({:.1}, {:.1}) yaw {:.2} at {:.1} m/s, {:?} {:?}",
+                        v.id,
+                        v.kind,
+                        lane_name(v),
+                        v.s,
+                        v.pose.x,
+                        v.pose.y,
+                        v.pose.yaw,
+                        v.speed,
+                        v.speed_mode,
+                        v.yield_phase
+                    )
+                };
+                tracing::debug!(
+                    "overlap at {time:.1} s, {depth:.2} m deep: {} and {}",
+                    show(va),
+                    show(vb)
+                );
+            }
             self.overlaps
                 .add(finding(va, Some(vb.id), depth.max(0.0), 0.0));
         }
@@ -162,8 +190,13 @@ impl MotionCheck {
 }
 
 /// Pairs (indices into `vehicles`, the lower first) whose footprints shrunk
-/// by `margin` overlap: neighbours from a grid of cells, not all pairs.
-pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(usize, usize)> {
+/// by `margin` overlap, at one level (see [`bodies_may_meet`]): neighbours
+/// from a grid of cells, not all pairs.
+pub fn overlapping_pairs(
+    net: &LaneNetwork,
+    vehicles: &[Vehicle],
+    margin: f64,
+) -> Vec<(usize, usize)> {
     const CELL: f64 = 10.0;
     let cell = |v: &Vehicle| {
         (
@@ -185,7 +218,15 @@ pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(usize, usize
                     .get(&(cx + dx, cy + dy))
                     .map_or(&[][..], Vec::as_slice)
                 {
-                    if j > i && boxes_overlap(&a, &vehicles[j].footprint(margin)) {
+                    let other = &vehicles[j];
+                    if j > i
+                        && boxes_overlap(&a, &other.footprint(margin))
+                        && bodies_may_meet(
+                            net,
+                            (v.path[0], v.pose.z),
+                            (other.path[0], other.pose.z),
+                        )
+                    {
                         pairs.push((i, j));
                     }
                 }

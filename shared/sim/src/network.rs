@@ -55,6 +55,9 @@ pub struct Lane {
     /// Followed as it leads, this lane never leads anywhere else (see
     /// [`crate::loops`]).
     pub in_closed_loop: bool,
+    /// The lanes this one crosses at another level (sorted): see
+    /// [`LaneNetwork::lanes_apart`].
+    pub crosses_apart: Vec<LaneId>,
 }
 
 /// What holds a vehicle at a lane's stop point (the stop line, else for a
@@ -282,9 +285,21 @@ impl LaneNetwork {
                     vehicle_classes: def.vehicle_classes.clone(),
                     siblings: Vec::new(),
                     in_closed_loop: false,
+                    crosses_apart: Vec::new(),
                 }
             })
             .collect();
+        for (i, def) in map.lanes.iter().enumerate() {
+            for other in &def.crosses_apart {
+                let j = id(other);
+                lanes[i].crosses_apart.push(j);
+                lanes[j as usize].crosses_apart.push(i as LaneId);
+            }
+        }
+        for lane in &mut lanes {
+            lane.crosses_apart.sort_unstable();
+            lane.crosses_apart.dedup();
+        }
         for i in 0..lanes.len() {
             for n in lanes[i].next.clone() {
                 if !lanes[n as usize].prev.contains(&(i as LaneId)) {
@@ -440,6 +455,13 @@ impl LaneNetwork {
 
     pub fn lane(&self, id: LaneId) -> &Lane {
         &self.lanes[id as usize]
+    }
+
+    /// The two lanes cross at different levels, a bridge over the other
+    /// (the map's `crosses_apart`): bodies on them never meet.
+    pub fn lanes_apart(&self, a: LaneId, b: LaneId) -> bool {
+        let lane = self.lane(a);
+        !lane.crosses_apart.is_empty() && lane.crosses_apart.binary_search(&b).is_ok()
     }
 
     /// A fingerprint of what the bus addresses by index or name: the lanes in

@@ -147,7 +147,7 @@ fn a_truck_across_a_sharp_turn_is_drawn_centred_and_its_follower_keeps_clear() {
     let mut worst = Vec::new();
     run_until(&mut w, 60.0, |w| {
         worst.extend(
-            overlapping_pairs(w.vehicles(), 0.1)
+            overlapping_pairs(w.network(), w.vehicles(), 0.1)
                 .into_iter()
                 .map(|p| (w.time(), p)),
         );

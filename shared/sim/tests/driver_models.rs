@@ -35,7 +35,7 @@ fn a_realistic_queue_stops_before_the_red_line_without_overlap_and_leaves_on_gre
     for _ in 0..(60.0 / 0.02) as usize {
         w.step();
         assert!(
-            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            overlapping_pairs(w.network(), w.vehicles(), 0.05).is_empty(),
             "overlap at {:.2} s",
             w.time()
         );

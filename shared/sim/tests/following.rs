@@ -23,7 +23,7 @@ fn follows_stopped_vehicle_without_overlap() {
             "follower's front within {gap:.2} m of the leader's rear at t={:.2}",
             w.time()
         );
-        assert!(overlapping_pairs(w.vehicles(), 0.0).is_empty());
+        assert!(overlapping_pairs(w.network(), w.vehicles(), 0.0).is_empty());
     }
     let (l, f) = (vehicle(&w, leader), vehicle(&w, follower));
     assert!(f.speed < 0.05, "follower still moving at {}", f.speed);

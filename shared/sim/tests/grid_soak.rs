@@ -33,7 +33,7 @@ fn grid_5x5_thirty_minutes_no_overlap_and_no_endless_stop() {
         if !w.ticks().is_multiple_of(5) {
             continue;
         }
-        let pairs = overlapping_pairs(w.vehicles(), 0.1);
+        let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.1);
         if let Some(&(a, b)) = pairs.first() {
             let describe = |id| {
                 let v = vehicle(&w, id);

@@ -166,7 +166,7 @@ fn a_jammed_vehicle_is_moved_only_where_its_whole_body_fits() {
             run_until(&mut w, 60.0, |w| w.wait_stats().jam_resolutions == 1),
             "its timeout comes"
         );
-        let pairs = overlapping_pairs(w.vehicles(), 0.0);
+        let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.0);
         assert!(pairs.is_empty(), "overlap after the move: {pairs:?}");
         if side_truck {
             assert!(w.vehicle(id).is_none(), "no room on the exit: taken off");
@@ -485,7 +485,7 @@ fn a_ring_of_full_roads_is_broken_as_a_gridlock_and_drains() {
     );
     let mut overlaps = 0;
     let drained = run_until(&mut w, 240.0, |w| {
-        overlaps += overlapping_pairs(w.vehicles(), 0.0).len();
+        overlaps += overlapping_pairs(w.network(), w.vehicles(), 0.0).len();
         w.vehicles().is_empty()
     });
     let left: Vec<_> = ids.iter().filter(|&&id| w.vehicle(id).is_some()).collect();

@@ -23,7 +23,7 @@ fn run_out(world: &mut World, ids: &[u64]) -> Vec<Vec<String>> {
         .collect();
     let done = run_until(world, 120.0, |w| {
         assert!(
-            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            overlapping_pairs(w.network(), w.vehicles(), 0.05).is_empty(),
             "overlap at t={:.2}",
             w.time()
         );
@@ -194,7 +194,7 @@ fn a_queue_starting_up_lets_in_a_car_waiting_at_its_lane_end() {
     let mut entered: Vec<Option<f64>> = vec![None; ids.len()];
     let done = run_until(&mut w, 120.0, |w| {
         assert!(
-            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            overlapping_pairs(w.network(), w.vehicles(), 0.05).is_empty(),
             "overlap at t={:.2}",
             w.time()
         );
@@ -340,7 +340,7 @@ fn road_lanes_seen(w: &mut World, ids: &[u64], seconds: f64) -> Vec<Vec<String>>
     let mut seen: Vec<Vec<String>> = vec![Vec::new(); ids.len()];
     run_until(w, seconds, |w| {
         assert!(
-            overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+            overlapping_pairs(w.network(), w.vehicles(), 0.05).is_empty(),
             "overlap at t={:.2}",
             w.time()
         );
@@ -456,7 +456,7 @@ fn a_driver_without_a_route_gives_up_a_turn_it_finds_no_gap_for_and_goes_on_its_
         let mut waited_from = None;
         let gone = run_until(&mut w, 120.0, |w| {
             assert!(
-                overlapping_pairs(w.vehicles(), 0.05).is_empty(),
+                overlapping_pairs(w.network(), w.vehicles(), 0.05).is_empty(),
                 "seed {seed}: overlap at t={:.2}",
                 w.time()
             );

@@ -89,7 +89,7 @@ fn inside(v: &trafficmesh_sim::Vehicle) -> bool {
 fn run_out(w: &mut World, seconds: f64) -> Vec<(u64, f64, f64)> {
     let mut seen: Vec<(u64, f64, f64)> = Vec::new();
     let done = run_until(w, seconds, |w| {
-        let overlaps = overlapping_pairs(w.vehicles(), 0.05);
+        let overlaps = overlapping_pairs(w.network(), w.vehicles(), 0.05);
         assert!(
             overlaps.is_empty(),
             "overlap at t={:.2}: {overlaps:?}",
@@ -150,7 +150,7 @@ fn stream_with(controller: &str, every: f64, config: WorldConfig) -> (usize, Wor
             next += every;
         }
         w.step();
-        let overlaps = overlapping_pairs(w.vehicles(), 0.05);
+        let overlaps = overlapping_pairs(w.network(), w.vehicles(), 0.05);
         assert!(
             overlaps.is_empty(),
             "{controller}: overlap at t={:.2}: {overlaps:?}",
@@ -277,7 +277,7 @@ fn ambulance_enters(emergency: bool) -> f64 {
             ambulance = Some((id, w.time()));
         }
         w.step();
-        let overlaps = overlapping_pairs(w.vehicles(), 0.05);
+        let overlaps = overlapping_pairs(w.network(), w.vehicles(), 0.05);
         assert!(
             overlaps.is_empty(),
             "overlap at t={:.2}: {overlaps:?}",

@@ -69,7 +69,7 @@ fn crossing_lanes(yields: [&[&str]; 4], lead_in: bool) -> Vec<serde_json::Value>
 }
 
 fn assert_no_overlap(w: &World) {
-    let pairs = overlapping_pairs(w.vehicles(), 0.05);
+    let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
     assert!(pairs.is_empty(), "overlap at t={:.2}: {pairs:?}", w.time());
 }
 

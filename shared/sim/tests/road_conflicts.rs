@@ -36,7 +36,7 @@ fn at_an_unmarked_crossing_the_vehicle_nearer_to_it_goes_first() {
     let near = w.place_vehicle("Taxi", "north", 62.0, 10.0).unwrap();
     let mut crossed: Vec<(u64, f64)> = Vec::new();
     let done = run_until(&mut w, 120.0, |w| {
-        let pairs = overlapping_pairs(w.vehicles(), 0.05);
+        let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
         assert!(pairs.is_empty(), "overlap at t={:.2}", w.time());
         for id in [far, near] {
             if let Some(v) = w.vehicle(id)
@@ -75,7 +75,7 @@ fn at_an_unmarked_crossing_reached_together_the_lower_id_goes_first() {
             let higher = w.place_vehicle("Taxi", higher_on, 60.0, 10.0).unwrap();
             let mut crossed: Vec<u64> = Vec::new();
             let done = run_until(&mut w, 120.0, |w| {
-                let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
                 assert!(pairs.is_empty(), "overlap at t={:.2}", w.time());
                 for id in [lower, higher] {
                     if w.vehicle(id).is_some_and(|v| v.s > 100.0) && !crossed.contains(&id) {
@@ -114,7 +114,7 @@ fn two_trucks_do_not_fit_side_by_side_on_narrow_lanes_but_two_cars_do() {
         let coming = w.place_vehicle(kind, "left", 60.0, 10.0).unwrap();
         let mut passed = false;
         run_until(&mut w, 40.0, |w| {
-            let pairs = overlapping_pairs(w.vehicles(), 0.05);
+            let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
             assert!(pairs.is_empty(), "{kind}: overlap at t={:.2}", w.time());
             if let (Some(a), Some(b)) = (w.vehicle(queued), w.vehicle(coming)) {
                 passed |= b.rear_s() > a.s;
@@ -148,7 +148,7 @@ fn both_get_through(
         w.vehicle(id).is_none_or(|v| v.path[0] == out && v.s > past)
     };
     let done = run_until(w, 120.0, |w| {
-        let pairs = overlapping_pairs(w.vehicles(), 0.05);
+        let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
         assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
         exits.iter().all(|&e| beyond(w, e))
     });
@@ -462,7 +462,7 @@ fn a_truck_waits_for_a_narrow_stretch_before_the_junction_not_inside_it() {
                 let what = format!("dt {}: east at {east_at} m, west at {west_at} m", config.dt);
                 let mut stood_before = false;
                 let done = run_until(&mut w, 120.0, |w| {
-                    let pairs = overlapping_pairs(w.vehicles(), 0.05);
+                    let pairs = overlapping_pairs(w.network(), w.vehicles(), 0.05);
                     assert!(pairs.is_empty(), "{what}: overlap at t={:.2}", w.time());
                     // Standing anywhere past the junction's entry, part of
                     // its body would be in the junction (10 m long; the

@@ -188,7 +188,7 @@ fn run(o: &FourWayOptions, arrivals: &[Arrival], duration: f64) -> Result<Run> {
     let limit = duration + 600.0;
     while world.time() < limit && left < arrivals.len() {
         world.step();
-        for (i, j) in overlapping_pairs(world.vehicles(), OVERLAP_MARGIN) {
+        for (i, j) in overlapping_pairs(world.network(), world.vehicles(), OVERLAP_MARGIN) {
             let (a, b) = (world.vehicles()[i].id, world.vehicles()[j].id);
             pairs.insert((a.min(b), a.max(b)));
         }

@@ -17,7 +17,7 @@ use glam::DVec2;
 use super::Snapshot;
 use super::deadlock::STOPPED_SPEED;
 use super::path::{lanes_ahead, point_on_path};
-use crate::body_grid::{LEVELS_APART, MARGIN};
+use crate::body_grid::{MARGIN, bodies_may_meet};
 use crate::cognition::clearance::is_wide;
 use crate::geometry::Obb;
 use crate::vehicle::{BODY_TOLERANCE, Vehicle};
@@ -66,7 +66,7 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
     let waiting = body_at(snap, v, from);
     let (lo, hi) = way_bounds(snap, v, (from - v.length, to));
     let pad = DVec2::splat(0.5 * v.width + WAY_PAD);
-    let own_z = v.pose.z;
+    let way = (v.path[first.k], v.pose.z);
     let mut standing: Vec<u32> = Vec::new();
     snap.bodies.for_each_near(lo - pad, hi + pad, |j| {
         let other = &snap.vehicles[j as usize];
@@ -74,7 +74,7 @@ pub fn blocked_by_standing(snap: &Snapshot, i: usize) -> Option<(f64, u32)> {
         if j as usize != i
             && other.speed < STOPPED_SPEED
             && !v.path.contains(&other.path[0])
-            && (body.z - own_z).abs() <= LEVELS_APART
+            && bodies_may_meet(net, way, (body.lane, body.z))
             // Already in the way of the body waiting at the entry: the
             // clearance check's, not a reason to wait here.
             && waiting.separation(&body.obb) > MARGIN

@@ -13,6 +13,7 @@ use trafficmesh_model::LightColor;
 
 use super::World;
 use super::squeeze::{self, Squeeze};
+use crate::body_grid::bodies_may_meet;
 use crate::cognition::deadlock::{self, Wait};
 use crate::cognition::path::first_junction_lane;
 use crate::events::DespawnReason;
@@ -208,6 +209,11 @@ impl World {
         self.vehicles.iter().enumerate().all(|(j, other)| {
             j == i
                 || DVec2::new(other.pose.x, other.pose.y).distance(centre) > reach + other.length
+                || !bodies_may_meet(
+                    &self.net,
+                    (lane, moved.pose.z),
+                    (other.path[0], other.pose.z),
+                )
                 || !boxes_overlap(&body, &other.footprint(0.0))
         })
     }

@@ -127,8 +127,9 @@ impl World {
         let spawn_lane = self.net.lane(lane);
         if !self.is_spawnable(kind, lane, spawned_here)
             || !self.bodies.clear_of_moved(
+                &self.net,
                 &body_at_start(spawn_lane, &self.net.kinds[kind]),
-                spawn_lane.line.point_at(0.0).1,
+                (lane, spawn_lane.line.point_at(0.0).1),
             )
         {
             return Err(SpawnRejection::NotSpawnable);

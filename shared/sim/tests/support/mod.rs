@@ -123,13 +123,21 @@ pub fn run_for(world: &mut World, seconds: f64) {
 
 /// No two bodies overlap now, as the overlap check of `sim --check` reads them.
 pub fn assert_no_overlap(w: &World) {
-    let pairs = overlapping_pairs(w.vehicles(), trafficmesh_sim::motion_check::OVERLAP_MARGIN);
+    let pairs = overlapping_pairs(
+        w.network(),
+        w.vehicles(),
+        trafficmesh_sim::motion_check::OVERLAP_MARGIN,
+    );
     assert!(pairs.is_empty(), "{pairs:?} overlap at t={:.2}", w.time());
 }
 
 /// Pairs of vehicles (by id) whose footprints overlap: the check `sim --check` makes.
-pub fn overlapping_pairs(vehicles: &[Vehicle], margin: f64) -> Vec<(u64, u64)> {
-    trafficmesh_sim::motion_check::overlapping_pairs(vehicles, margin)
+pub fn overlapping_pairs(
+    net: &trafficmesh_sim::network::LaneNetwork,
+    vehicles: &[Vehicle],
+    margin: f64,
+) -> Vec<(u64, u64)> {
+    trafficmesh_sim::motion_check::overlapping_pairs(net, vehicles, margin)
         .into_iter()
         .map(|(i, j)| (vehicles[i].id, vehicles[j].id))
         .collect()
