@@ -23,7 +23,7 @@ use glam::DVec2;
 
 use super::Snapshot;
 use super::path::point_on_path;
-use crate::body_grid::{BodyBox, LEVELS_APART, MARGIN};
+use crate::body_grid::{BodyBox, MARGIN};
 use crate::geometry::Obb;
 use crate::vehicle::Vehicle;
 
@@ -99,7 +99,7 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
             other.obb.centre.dot(own.obb.axis) + other.obb.half_shadow(own.obb.axis) + other_swing
                 < rear;
         if behind
-            || (own.z - other.z).abs() > LEVELS_APART
+            || !own.may_meet(other, snap.net)
             || own.obb.separation(&other.obb) > reach_out + other_swing
         {
             return;
@@ -127,7 +127,7 @@ pub fn blocked(snap: &Snapshot, i: usize) -> Option<Blocked> {
             nearest = Some((Blocked { travel, by: j }, other.id));
         }
     });
-    let yielded = way_of_the_yielded(&mover, i);
+    let yielded = way_of_wide_bodies(&mover, i);
     // A body as near as the way of the one given way to stands for it.
     [nearest.map(|(b, _)| b), yielded]
         .into_iter()
@@ -210,27 +210,58 @@ fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f
     ))
 }
 
-/// A vehicle that gives way to a wide one (a truck or bus with little room
-/// in its lane, whose body cuts the inside of its turns) waits clear of the
-/// ground that body will sweep through the junction, not only of where it
-/// is now: else it comes up to its stop line beside the truck standing in
-/// the junction, whose body, swinging round the rest of its turn, then
-/// meets its own, and neither can move. Where it stands in that ground
-/// already, it comes no nearer. (Narrower bodies keep to their lanes, which
-/// the junction's rules keep apart.)
-fn way_of_the_yielded(mover: &Mover, i: usize) -> Option<Blocked> {
-    let Mover { snap, v, own, .. } = *mover;
-    if !v.yield_phase.is_yielding() || snap.net.lane(v.path[0]).intersection {
+/// A vehicle coming up to a junction keeps clear of the ground that a wide
+/// body (a truck or bus with little room in its lane, whose body cuts the
+/// inside of its turns) will sweep through the junction, not only of where
+/// it is now: the one it gives way to, and any driving through the junction
+/// now. Else it comes up to its stop line beside the truck, whose body,
+/// swinging round the rest of its turn or out onto the street, then meets
+/// its own, and neither can move. Where it stands in that ground already, it
+/// comes no nearer. (Narrower bodies keep to their lanes, which the
+/// junction's rules keep apart.)
+fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
+    let Mover { snap, v, .. } = *mover;
+    if snap.net.lane(v.path[0]).intersection {
         return None;
     }
-    let j = snap
+    let junction = snap.row[i].junction;
+    let given_way = v
+        .yield_phase
+        .is_yielding()
+        .then(|| snap.junctions.index_of(junction, v.dominating?))
+        .flatten();
+    let crossing = snap
         .junctions
-        .index_of(snap.row[i].junction, v.dominating?)? as usize;
-    let (w, other) = (&snap.vehicles[j], snap.bodies.body(j));
-    if !is_wide(snap.net, w) || (own.z - other.z).abs() > LEVELS_APART {
+        .of(junction)
+        .iter()
+        .map(|m| m.index)
+        .filter(|&j| {
+            let row = &snap.row[j as usize];
+            j as usize != i && row.on_intersection && !row.yield_phase.is_yielding()
+        });
+    given_way
+        .into_iter()
+        .chain(crossing)
+        .filter_map(|j| keep_clear_of_way(mover, j))
+        .min_by(|a, b| a.travel.total_cmp(&b.travel).then(a.by.cmp(&b.by)))
+}
+
+/// Where the mover stops short of the ground vehicle `j`, if wide, sweeps
+/// through the junction ahead of it.
+fn keep_clear_of_way(mover: &Mover, j: u32) -> Option<Blocked> {
+    let Mover { snap, v, own, .. } = *mover;
+    let (w, other) = (&snap.vehicles[j as usize], snap.bodies.body(j as usize));
+    // One whose way runs along our lane follows us (or leads): following
+    // keeps the two apart, and its way through is where we are going.
+    if !is_wide(snap.net, w) || !own.may_meet(other, snap.net) || w.path.contains(&v.path[0]) {
         return None;
     }
     let (mut from, way) = junction_stretch(snap.net, w)?;
+    // Out of reach of the whole stretch: nothing to sweep near.
+    let reach = way + 2.0 * other.obb.half_length + own.obb.half_length + own.swing + MARGIN;
+    if own.obb.centre.distance_squared(other.obb.centre) > reach * reach {
+        return None;
+    }
     let mut nearest: Option<f64> = None;
     while from < way {
         let ground = Shape::swept_between(snap, w, other, from, from + YIELDED_STEP);
@@ -239,10 +270,7 @@ fn way_of_the_yielded(mover: &Mover, i: usize) -> Option<Blocked> {
             nearest = Some(nearest.map_or(travel, |n| n.min(travel)));
         }
     }
-    nearest.map(|travel| Blocked {
-        travel,
-        by: j as u32,
-    })
+    nearest.map(|travel| Blocked { travel, by: j })
 }
 
 /// Whether the whole body drives along one plain lane with room to spare,
@@ -276,10 +304,14 @@ pub fn is_wide(net: &crate::network::LaneNetwork, v: &Vehicle) -> bool {
 
 /// Of two bodies, `a` goes before `b`: its front is further along the way
 /// both are heading (the one that reached the ground they share first),
-/// except for two turns in a junction heading against each other (a bus
-/// turning left sweeps across the exit of a car turning right from the
-/// other way), where the one nearer the end of its junction lane, which
-/// leaves the ground first, goes first; level, its id is lower.
+/// except for two bodies heading against each other: of two turns in a
+/// junction (a bus turning left sweeps across the exit of a car turning
+/// right from the other way) the one nearer the end of its junction lane,
+/// which leaves the ground first, goes first; of one in a junction, or
+/// with its rear still in one (a truck swinging out of its turn over the
+/// end of the oncoming lane), and one that has not entered, the one in the
+/// junction, which must clear it, while the other can wait before it;
+/// level, its id is lower.
 /// Antisymmetric, so that of two bodies exactly one keeps clear of the
 /// other's sweep.
 fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
@@ -297,6 +329,8 @@ fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
         if (fa - fb).abs() > LEVEL {
             return fa > fb;
         }
+    } else if a.to_leave_junction.is_finite() != b.to_leave_junction.is_finite() {
+        return a.to_leave_junction.is_finite();
     }
     a.id < b.id
 }
