@@ -4,9 +4,12 @@
 #
 #   configs/sumo/make_scenarios.sh [OUT_DIR]      (default out/sumo-scenarios)
 #
-# Writes grid{1k,10k,50k}.net.xml and .rou.xml, and grid3_crossings.net.xml
-# with its two demands: signalised grids (200 m blocks,
-# two lanes per direction, no U-turns) with random routed trips for 900 s,
+# Writes grid{1k,10k,50k}.net.xml and .rou.xml, grid3_crossings.net.xml
+# with its two demands, and rand_priority.net.xml / rand_rbl.net.xml
+# (netgenerate's random networks: unsignalised junctions at every angle,
+# roads that cross with no junction, for random traffic). The grids are
+# signalised (200 m blocks, two lanes per direction, no U-turns), with random
+# routed trips for 900 s,
 # sized for about 1,000, 10,000 and 50,000 vehicles running at once
 # (insertion rate x mean trip time). Then, for example:
 #   trafficmesh bench vs-sumo --net OUT/grid1k.net.xml --routes OUT/grid1k.rou.xml --duration 900
@@ -44,5 +47,13 @@ for scenario in "grid3_crossings 2" "grid3_crossings_saturated 1.5"; do
   "$VENV/bin/python" "$SUMO_HOME/tools/randomTrips.py" -n "$OUT/grid3_crossings.net.xml" \
     -r "$OUT/$1.rou.xml" -o "$OUT/$1.trips.xml" -b 0 -e 600 -p "$2" --seed 7 \
     --fringe-factor 5 >/dev/null
+done
+# Random networks (one lane each way, priority and right-before-left
+# junctions), for `trafficmesh sim --map OUT/rand_priority.net.xml --duration
+# 1800 --max-vehicles 300 --check --json`.
+for scenario in "rand_priority 7 priority" "rand_rbl 8 right_before_left"; do
+  set -- $scenario
+  "$VENV/bin/netgenerate" --rand --rand.iterations 200 --seed "$2" --default.lanenumber 1 \
+    --rand.max-distance 200 --default-junction-type "$3" -o "$OUT/$1.net.xml" >/dev/null 2>&1
 done
 echo "wrote $OUT"

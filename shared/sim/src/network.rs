@@ -224,6 +224,9 @@ pub struct LaneNetwork {
     /// Vehicle kinds used by the simulators (the built-in catalogue).
     pub kinds: Vec<VehicleKind>,
     pub junction_count: u32,
+    /// Some lanes cross others at another level (nearly no map has any:
+    /// then the bodies' checks read no lane for it).
+    crossings_apart: bool,
     /// The junctions under reservation control, in the map's order.
     pub reservation_junctions: Vec<u32>,
     /// Which lanes outside junctions have conflict zones.
@@ -427,8 +430,10 @@ impl LaneNetwork {
             })
             .collect();
 
+        let crossings_apart = lanes.iter().any(|l| !l.crosses_apart.is_empty());
         Ok(LaneNetwork {
             name: map.name.clone(),
+            crossings_apart,
             lanes,
             by_name,
             light_groups: map
@@ -460,8 +465,7 @@ impl LaneNetwork {
     /// The two lanes cross at different levels, a bridge over the other
     /// (the map's `crosses_apart`): bodies on them never meet.
     pub fn lanes_apart(&self, a: LaneId, b: LaneId) -> bool {
-        let lane = self.lane(a);
-        !lane.crosses_apart.is_empty() && lane.crosses_apart.binary_search(&b).is_ok()
+        self.crossings_apart && self.lane(a).crosses_apart.binary_search(&b).is_ok()
     }
 
     /// A fingerprint of what the bus addresses by index or name: the lanes in

@@ -187,6 +187,9 @@ impl Mover<'_, '_> {
 /// The longest stretch of the way of the vehicle given way to whose ground
 /// the one giving way keeps clear of, metres.
 const YIELDED_WAY: f64 = 20.0;
+/// How far before the junction a wide body driving through it may swing
+/// out over the lane coming up to it, metres.
+const SWING_OVER_APPROACH: f64 = 5.0;
 /// The way is taken in steps this long, metres (the ground between two
 /// places lies within their hull).
 const YIELDED_STEP: f64 = 2.5;
@@ -220,7 +223,7 @@ fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f
 /// comes no nearer. (Narrower bodies keep to their lanes, which the
 /// junction's rules keep apart.)
 fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
-    let Mover { snap, v, .. } = *mover;
+    let Mover { snap, v, own, .. } = *mover;
     if snap.net.lane(v.path[0]).intersection {
         return None;
     }
@@ -230,15 +233,20 @@ fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
         .is_yielding()
         .then(|| snap.junctions.index_of(junction, v.dominating?))
         .flatten();
-    let crossing = snap
-        .junctions
-        .of(junction)
-        .iter()
-        .map(|m| m.index)
-        .filter(|&j| {
-            let row = &snap.row[j as usize];
-            j as usize != i && row.on_intersection && !row.yield_phase.is_yielding()
-        });
+    // A body swings out over no more than the last metres before the
+    // junction: further back, nothing to look at.
+    let near_entry = v
+        .first_junction_lane
+        .is_some_and(|f| f.start - v.s <= own.swing + SWING_OVER_APPROACH);
+    let members = if near_entry {
+        snap.junctions.of(junction)
+    } else {
+        &[]
+    };
+    let crossing = members.iter().map(|m| m.index).filter(|&j| {
+        let row = &snap.row[j as usize];
+        j as usize != i && row.on_intersection && !row.yield_phase.is_yielding()
+    });
     given_way
         .into_iter()
         .chain(crossing)
