@@ -1001,30 +1001,46 @@ fn vs_sumo(args: &[&std::ffi::OsStr]) -> Option<serde_json::Value> {
     Some(serde_json::from_slice(&out.stdout).unwrap())
 }
 
-/// A four-arm junction made by SUMO's netconvert: node `C` of `node_type`
-/// with 300 m arms `N`, `S`, `E`, `W`, one lane each way, edges `XC` in and
-/// `CX` out; the W-E road has priority where the type uses it. None (skipped)
-/// where SUMO is not installed.
-fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
-    let mut nodes = String::new();
-    for (id, x, y) in [
-        ("C", 0, 0),
-        ("N", 0, 300),
-        ("S", 0, -300),
-        ("E", 300, 0),
-        ("W", -300, 0),
-    ] {
-        nodes += &format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"{node_type}\"/>\n");
-    }
+/// netconvert's node lines: every node `(id, x, y)` of `node_type`.
+fn nodes_xml(nodes: &[(&str, i32, i32)], node_type: &str) -> String {
+    nodes
+        .iter()
+        .map(|(id, x, y)| {
+            format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"{node_type}\"/>\n")
+        })
+        .collect()
+}
+
+/// netconvert's edge lines: each road `(a, b, priority)` one lane each way,
+/// edges `ab` and `ba`, at 13.89 m/s.
+fn two_way_edges_xml(roads: &[(&str, &str, u32)]) -> String {
     let mut edges = String::new();
-    for arm in ["N", "S", "E", "W"] {
-        let priority = if matches!(arm, "E" | "W") { 2 } else { 1 };
-        for (from, to) in [(arm, "C"), ("C", arm)] {
+    for &(a, b, priority) in roads {
+        for (from, to) in [(a, b), (b, a)] {
             edges += &format!(
                 "  <edge id=\"{from}{to}\" from=\"{from}\" to=\"{to}\" numLanes=\"1\" speed=\"13.89\" priority=\"{priority}\"/>\n"
             );
         }
     }
+    edges
+}
+
+/// A four-arm junction made by SUMO's netconvert: node `C` of `node_type`
+/// with 300 m arms `N`, `S`, `E`, `W`, one lane each way, edges `XC` in and
+/// `CX` out; the W-E road has priority where the type uses it. None (skipped)
+/// where SUMO is not installed.
+fn netconvert_cross(dir: &Path, node_type: &str) -> Option<PathBuf> {
+    let nodes = nodes_xml(
+        &[
+            ("C", 0, 0),
+            ("N", 0, 300),
+            ("S", 0, -300),
+            ("E", 300, 0),
+            ("W", -300, 0),
+        ],
+        node_type,
+    );
+    let edges = two_way_edges_xml(&[("N", "C", 1), ("S", "C", 1), ("E", "C", 2), ("W", "C", 2)]);
     netconvert(dir, node_type, &nodes, &edges, &[])
 }
 
@@ -1509,33 +1525,26 @@ fn a_two_lane_roundabout_with_every_entry_queued_lets_everybody_through() {
 #[test]
 fn a_road_crossing_another_with_no_junction_passes_over_it() {
     let dir = tempfile::tempdir().unwrap();
-    let mut nodes = String::new();
-    for (id, x, y) in [
-        ("S", 0, -300),
-        ("N", 0, 400),
-        ("W", -300, 0),
-        ("E", 300, 0),
-        ("A", -300, 100),
-        ("B", 300, 100),
-        ("D", -150, 250),
-        ("T", 0, 100),
-    ] {
-        nodes += &format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"priority\"/>\n");
-    }
-    let mut edges = String::new();
-    for (from, to, priority) in [
+    let nodes = nodes_xml(
+        &[
+            ("S", 0, -300),
+            ("N", 0, 400),
+            ("W", -300, 0),
+            ("E", 300, 0),
+            ("A", -300, 100),
+            ("B", 300, 100),
+            ("D", -150, 250),
+            ("T", 0, 100),
+        ],
+        "priority",
+    );
+    let edges = two_way_edges_xml(&[
         ("S", "N", 1),
         ("W", "E", 1),
         ("A", "T", 2),
         ("T", "B", 2),
         ("T", "D", 1),
-    ] {
-        for (a, b) in [(from, to), (to, from)] {
-            edges += &format!(
-                "  <edge id=\"{a}{b}\" from=\"{a}\" to=\"{b}\" numLanes=\"1\" speed=\"13.89\" priority=\"{priority}\"/>\n"
-            );
-        }
-    }
+    ]);
     let Some(net) = netconvert(dir.path(), "bridge", &nodes, &edges, &[]) else {
         return;
     };
@@ -1577,17 +1586,17 @@ fn a_road_crossing_another_with_no_junction_passes_over_it() {
 #[test]
 fn a_truck_swinging_out_of_its_turn_is_not_met_by_the_truck_coming_the_other_way() {
     let dir = tempfile::tempdir().unwrap();
-    let mut nodes = String::new();
     // Junction 3511 of a netgenerate --rand network, its arms as they lie.
-    for (id, x, y) in [
-        ("C", 0, 0),
-        ("W", -261, 78),
-        ("E", 172, 13),
-        ("S", -77, -135),
-        ("R", 132, -192),
-    ] {
-        nodes += &format!("  <node id=\"{id}\" x=\"{x}\" y=\"{y}\" type=\"right_before_left\"/>\n");
-    }
+    let nodes = nodes_xml(
+        &[
+            ("C", 0, 0),
+            ("W", -261, 78),
+            ("E", 172, 13),
+            ("S", -77, -135),
+            ("R", 132, -192),
+        ],
+        "right_before_left",
+    );
     let mut edges = String::new();
     for arm in ["W", "E", "S", "R"] {
         for (from, to) in [(arm, "C"), ("C", arm)] {
