@@ -24,7 +24,7 @@ use glam::DVec2;
 use super::Snapshot;
 use super::path::point_on_path;
 use crate::body_grid::{BodyBox, MARGIN};
-use crate::geometry::Obb;
+use crate::geometry::{Obb, angle_between};
 use crate::vehicle::Vehicle;
 
 /// A body in the vehicle's way.
@@ -190,14 +190,32 @@ const YIELDED_WAY: f64 = 20.0;
 /// How far before the junction a wide body driving through it may swing
 /// out over the lane coming up to it, metres.
 const SWING_OVER_APPROACH: f64 = 5.0;
+/// The same for a body leaving a sharp turn, metres: its rear swings out as
+/// its heading catches up, up to a body length back from the junction.
+const LEAVING_SWING_OVER_APPROACH: f64 = 12.0;
+/// A body leaving a junction whose drawn heading lags its chord by more than
+/// this still swings, degrees.
+const LAG_TO_SWING_DEG: f64 = 2.0;
+/// The longest body a vehicle type has, about, metres: how far beyond the
+/// junction stretch of another body its swing may reach.
+const LONGEST_BODY: f64 = 12.0;
 /// The way is taken in steps this long, metres (the ground between two
-/// places lies within their hull).
+/// places lies within their hull while the body turns little between them).
 const YIELDED_STEP: f64 = 2.5;
+/// The shortest step, metres, and the cosine of the most a body may turn
+/// over one (about 8 degrees: a truck's corner then strays from the hull by
+/// a centimetre).
+const MIN_YIELDED_STEP: f64 = 0.3;
+const COS_MOST_TURN_PER_STEP: f64 = 0.99;
 
 /// The stretch of the way of `w`, metres from its front, over which its
-/// body is in the junction ahead: from where its front enters to where its
-/// rear leaves (at most [`YIELDED_WAY`] long).
+/// body is in a junction: from where its front enters the one ahead to where
+/// its rear leaves it (at most [`YIELDED_WAY`] long), or, with its front out
+/// of one already, from here to where its rear leaves that one.
 fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f64, f64)> {
+    if let Some(to_leave) = rear_to_leave_junction(net, w) {
+        return Some((0.0, to_leave));
+    }
     let first = w.first_junction_lane?;
     let to_entry = first.start - w.s;
     let through: f64 = w.path[first.k..]
@@ -219,9 +237,11 @@ fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f
 /// it is now: the one it gives way to, and any driving through the junction
 /// now. Else it comes up to its stop line beside the truck, whose body,
 /// swinging round the rest of its turn or out onto the street, then meets
-/// its own, and neither can move. Where it stands in that ground already, it
-/// comes no nearer. (Narrower bodies keep to their lanes, which the
-/// junction's rules keep apart.)
+/// its own, and neither can move. The same holds for a body that has just
+/// left a sharp turn, its heading still swinging round, where it or the
+/// mover is wide. Where it stands in that ground already, it comes no
+/// nearer. (Narrower bodies keep to their lanes, which the junction's rules
+/// keep apart.)
 fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
     let Mover { snap, v, own, .. } = *mover;
     if snap.net.lane(v.path[0]).intersection {
@@ -232,36 +252,81 @@ fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
         .yield_phase
         .is_yielding()
         .then(|| snap.junctions.index_of(junction, v.dominating?))
-        .flatten();
+        .flatten()
+        .filter(|&j| is_wide(snap.net, &snap.vehicles[j as usize]));
     // A body swings out over no more than the last metres before the
     // junction: further back, nothing to look at.
-    let near_entry = v
-        .first_junction_lane
-        .is_some_and(|f| f.start - v.s <= own.swing + SWING_OVER_APPROACH);
-    let members = if near_entry {
-        snap.junctions.of(junction)
-    } else {
-        &[]
+    let to_entry = v.first_junction_lane.map(|f| f.start - v.s - own.swing);
+    let sweeping = match to_entry {
+        Some(d) if d <= LEAVING_SWING_OVER_APPROACH => {
+            sweeping_through_junctions(mover, i, d <= SWING_OVER_APPROACH)
+        }
+        _ => Vec::new(),
     };
-    let crossing = members.iter().map(|m| m.index).filter(|&j| {
-        let row = &snap.row[j as usize];
-        j as usize != i && row.on_intersection && !row.yield_phase.is_yielding()
-    });
     given_way
         .into_iter()
-        .chain(crossing)
+        .chain(sweeping)
         .filter_map(|j| keep_clear_of_way(mover, j))
         .min_by(|a, b| a.travel.total_cmp(&b.travel).then(a.by.cmp(&b.by)))
 }
 
-/// Where the mover stops short of the ground vehicle `j`, if wide, sweeps
-/// through the junction ahead of it.
+/// Metres the front of `w` still drives until its rear has left the
+/// junction its front has just left; None if its front is in one, or its
+/// body is out.
+fn rear_to_leave_junction(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<f64> {
+    let leaving = !net.lane(w.path[0]).intersection
+        && w.s < w.length
+        && w.behind.latest().is_some_and(|l| net.lane(l).intersection);
+    leaving.then_some(w.length - w.s)
+}
+
+/// Vehicles near the mover, as it comes up to its junction, whose bodies
+/// still sweep through a junction: a wide one driving through it (not held
+/// by a rule), where the mover is `near_entry`; and one whose front has left
+/// a junction and whose rear has not, its heading still lagging the turn,
+/// where it or the mover is wide (the rest of that swing reaches over the
+/// end of the lane the mover comes up: the oncoming lane of the street it
+/// turned into). Found by where they are, not by the junction's rules: a
+/// wide body sweeps over lanes those never set against its own. Indices, in
+/// id order.
+fn sweeping_through_junctions(mover: &Mover, i: usize, near_entry: bool) -> Vec<u32> {
+    let Mover { snap, v, own, .. } = *mover;
+    let net = snap.net;
+    let mover_wide = is_wide(net, v);
+    let reach = DVec2::splat(own.swing + YIELDED_WAY + LONGEST_BODY);
+    let (lo, hi) = own.obb.bounds();
+    let mut found = Vec::new();
+    snap.bodies.for_each_near(lo - reach, hi + reach, |j| {
+        if j as usize == i {
+            return;
+        }
+        let other = snap.bodies.body(j as usize);
+        let w = &snap.vehicles[j as usize];
+        let sweeps = if net.lane(other.lane).intersection {
+            near_entry && !snap.row[j as usize].yield_phase.is_yielding() && is_wide(net, w)
+        } else {
+            other.to_leave_junction == 0.0
+                && (mover_wide || is_wide(net, w))
+                && angle_between(w.pose.yaw, w.body_yaw) > LAG_TO_SWING_DEG.to_radians()
+                // One leaving ahead of the mover on its own way is followed.
+                && !w.behind.iter().any(|l| l == v.path[0])
+        };
+        if sweeps {
+            found.push(j);
+        }
+    });
+    found.sort_unstable_by_key(|&j| snap.vehicles[j as usize].id);
+    found
+}
+
+/// Where the mover stops short of the ground vehicle `j` sweeps through the
+/// junction ahead of it, or through the rest of the one it is leaving.
 fn keep_clear_of_way(mover: &Mover, j: u32) -> Option<Blocked> {
     let Mover { snap, v, own, .. } = *mover;
     let (w, other) = (&snap.vehicles[j as usize], snap.bodies.body(j as usize));
     // One whose way runs along our lane follows us (or leads): following
     // keeps the two apart, and its way through is where we are going.
-    if !is_wide(snap.net, w) || !own.may_meet(other, snap.net) || w.path.contains(&v.path[0]) {
+    if !own.may_meet(other, snap.net) || w.path.contains(&v.path[0]) {
         return None;
     }
     let (mut from, way) = junction_stretch(snap.net, w)?;
@@ -271,9 +336,20 @@ fn keep_clear_of_way(mover: &Mover, j: u32) -> Option<Blocked> {
         return None;
     }
     let mut nearest: Option<f64> = None;
+    // In steps of [`YIELDED_STEP`], halved where the body turns fast: the
+    // ground between two places lies within their hull only while the
+    // body turns little between them (its corners sweep arcs).
+    let mut here = placed(snap, w, other, from);
     while from < way {
-        let ground = Shape::swept_between(snap, w, other, from, from + YIELDED_STEP);
-        from += YIELDED_STEP;
+        let mut step = YIELDED_STEP;
+        let mut next = placed(snap, w, other, from + step);
+        while step > MIN_YIELDED_STEP && here.1.dot(next.1) < COS_MOST_TURN_PER_STEP {
+            step *= 0.5;
+            next = placed(snap, w, other, from + step);
+        }
+        let ground = Shape::between(&here, &next);
+        from += step;
+        here = next;
         if let Some(travel) = mover.travel_clear_of(&ground, MARGIN, false) {
             nearest = Some(nearest.map_or(travel, |n| n.min(travel)));
         }
@@ -393,14 +469,12 @@ impl Shape {
         Self::hull_of(points, own.obb.axis, axis, moved)
     }
 
-    /// The body `from` and `to` metres on (see [`Shape::swept`]).
-    fn swept_between(snap: &Snapshot, v: &Vehicle, own: &BodyBox, from: f64, to: f64) -> Self {
-        let (first, first_axis, mid_first) = placed(snap, v, own, from);
-        let (then, axis, mid_then) = placed(snap, v, own, to);
+    /// The body between two of its places (see [`placed`]).
+    fn between((first, first_axis, mid_first): &Place, (then, axis, mid_then): &Place) -> Self {
         let mut points = [DVec2::ZERO; 8];
-        points[..4].copy_from_slice(&first);
-        points[4..].copy_from_slice(&then);
-        Self::hull_of(points, first_axis, axis, mid_then - mid_first)
+        points[..4].copy_from_slice(first);
+        points[4..].copy_from_slice(then);
+        Self::hull_of(points, *first_axis, *axis, *mid_then - *mid_first)
     }
 
     /// Two boxes' corners (the first four, the last four), their axes and
@@ -455,12 +529,15 @@ impl Shape {
     }
 }
 
+/// A body's corners, its axis and the middle of its chord.
+type Place = ([DVec2; 4], DVec2, DVec2);
+
 /// The corners and axis of the body `travel` metres on along its path, and
 /// the middle of its chord then: moved as the chord between its bumpers
 /// moves, or, on its way across a lane change or where its drawn heading
 /// lags the chord (just out of a sharp turn), as [`crate::pose::draw`] will
 /// draw it.
-fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> ([DVec2; 4], DVec2, DVec2) {
+fn placed(snap: &Snapshot, v: &Vehicle, own: &BodyBox, travel: f64) -> Place {
     let (front, _) = point_on_path(snap.net, v, travel);
     let (back, _) = point_on_path(snap.net, v, travel - v.length);
     let (mid_now, mid_then) = (0.5 * (v.front + v.back), 0.5 * (front + back));
