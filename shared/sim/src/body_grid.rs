@@ -8,7 +8,7 @@ use glam::DVec2;
 use rayon::prelude::*;
 
 use crate::buckets::Buckets;
-use crate::geometry::Obb;
+use crate::geometry::{Obb, angle_between};
 use crate::network::{LaneId, LaneNetwork};
 use crate::parallel::light_pass_len;
 use crate::vehicle::{BODY_TOLERANCE, Vehicle, VehicleId};
@@ -73,6 +73,36 @@ pub struct BodyGrid {
     /// no rule placed it, so every body near one is checked, wherever it
     /// drives.
     squeezed: Vec<(DVec2, DVec2)>,
+    /// The bodies whose ground through a junction others coming up keep
+    /// clear of: wide ones on a junction lane, and those whose front has
+    /// left a junction while their rear, the drawn heading still lagging
+    /// the turn, has not. Few: indices, in the world's order.
+    sweeping: Vec<u32>,
+}
+
+/// A body with less room than this on each side of it in its lane is
+/// checked on the open road too: on a bend the chord it is drawn as leaves
+/// its lane (a truck beside another), metres.
+const LANE_SPARE: f64 = 0.5;
+/// A body leaving a junction whose drawn heading lags its chord by more than
+/// this still swings, degrees.
+const LAG_TO_SWING_DEG: f64 = 2.0;
+
+/// A body with less than [`LANE_SPARE`] on each side in its lane: on a
+/// bend the chord it is drawn as leaves its lane.
+pub fn is_wide(net: &LaneNetwork, v: &Vehicle) -> bool {
+    net.lane(v.path[0]).width - v.width < 2.0 * LANE_SPARE
+}
+
+/// Whether the body of `v` (its box `b`) still sweeps through a junction
+/// (see [`BodyGrid::sweeping`]).
+fn sweeps_through_junction(net: &LaneNetwork, v: &Vehicle, b: &BodyBox) -> bool {
+    if net.lane(b.lane).intersection {
+        is_wide(net, v)
+    } else {
+        b.to_leave_junction == 0.0
+            && angle_between(v.pose.yaw, v.body_yaw) > LAG_TO_SWING_DEG.to_radians()
+    }
 }
 
 /// A cell's side, metres: about a bus's length.
@@ -112,6 +142,7 @@ impl BodyGrid {
         self.key_count = (2 * self.boxes.len()).next_power_of_two().max(64);
         self.items.clear();
         self.squeezed.clear();
+        self.sweeping.clear();
         self.widest = DVec2::ZERO;
         for (i, b) in self.boxes.iter().enumerate() {
             let (lo, hi) = b.obb.bounds();
@@ -119,6 +150,9 @@ impl BodyGrid {
             self.widest = self.widest.max(hi - lo);
             if vehicles[i].has_squeezed() {
                 self.squeezed.push((lo, hi));
+            }
+            if sweeps_through_junction(net, &vehicles[i], b) {
+                self.sweeping.push(i as u32);
             }
             let (cx, cy) = cell_of(lo);
             let noted = Noted {
@@ -142,6 +176,12 @@ impl BodyGrid {
         self.squeezed
             .iter()
             .any(|&(l, h)| l.cmple(hi).all() && lo.cmple(h).all())
+    }
+
+    /// The bodies that still sweep through a junction: wide ones on a
+    /// junction lane, and those leaving one with their heading lagging.
+    pub fn sweeping(&self) -> &[u32] {
+        &self.sweeping
     }
 
     pub fn body(&self, i: usize) -> &BodyBox {

@@ -23,8 +23,9 @@ use glam::DVec2;
 
 use super::Snapshot;
 use super::path::point_on_path;
+pub use crate::body_grid::is_wide;
 use crate::body_grid::{BodyBox, MARGIN};
-use crate::geometry::{Obb, angle_between};
+use crate::geometry::Obb;
 use crate::vehicle::Vehicle;
 
 /// A body in the vehicle's way.
@@ -49,10 +50,6 @@ const LEVEL: f64 = 0.05;
 /// Within this of a junction, before or after it, a body is checked,
 /// metres: room for a bus's swing and a body standing across an exit.
 const JUNCTION_APPROACH: f64 = 10.0;
-/// A body with less room than this on each side of it in its lane is
-/// checked on the open road too: on a bend the chord it is drawn as leaves
-/// its lane (a truck beside another), metres.
-const LANE_SPARE: f64 = 0.5;
 /// What a vehicle squeezing past bodies beside its way keeps from them at
 /// the least, metres: room for its drawn pose settling on its chord.
 const SQUEEZE_MARGIN: f64 = 0.1;
@@ -193,9 +190,6 @@ const SWING_OVER_APPROACH: f64 = 5.0;
 /// The same for a body leaving a sharp turn, metres: its rear swings out as
 /// its heading catches up, up to a body length back from the junction.
 const LEAVING_SWING_OVER_APPROACH: f64 = 12.0;
-/// A body leaving a junction whose drawn heading lags its chord by more than
-/// this still swings, degrees.
-const LAG_TO_SWING_DEG: f64 = 2.0;
 /// The longest body a vehicle type has, about, metres: how far beyond the
 /// junction stretch of another body its swing may reach.
 const LONGEST_BODY: f64 = 12.0;
@@ -293,28 +287,28 @@ fn sweeping_through_junctions(mover: &Mover, i: usize, near_entry: bool) -> Vec<
     let Mover { snap, v, own, .. } = *mover;
     let net = snap.net;
     let mover_wide = is_wide(net, v);
-    let reach = DVec2::splat(own.swing + YIELDED_WAY + LONGEST_BODY);
-    let (lo, hi) = own.obb.bounds();
-    let mut found = Vec::new();
-    snap.bodies.for_each_near(lo - reach, hi + reach, |j| {
-        if j as usize == i {
-            return;
-        }
-        let other = snap.bodies.body(j as usize);
-        let w = &snap.vehicles[j as usize];
-        let sweeps = if net.lane(other.lane).intersection {
-            near_entry && !snap.row[j as usize].yield_phase.is_yielding() && is_wide(net, w)
-        } else {
-            other.to_leave_junction == 0.0
-                && (mover_wide || is_wide(net, w))
-                && angle_between(w.pose.yaw, w.body_yaw) > LAG_TO_SWING_DEG.to_radians()
+    // No nearer than `keep_clear_of_way` looks.
+    let reach = own.swing + own.obb.half_length + YIELDED_WAY + LONGEST_BODY + MARGIN;
+    let mut found: Vec<u32> = snap
+        .bodies
+        .sweeping()
+        .iter()
+        .copied()
+        .filter(|&j| {
+            let other = snap.bodies.body(j as usize);
+            if j as usize == i || own.obb.centre.distance_squared(other.obb.centre) > reach * reach
+            {
+                return false;
+            }
+            let w = &snap.vehicles[j as usize];
+            if net.lane(other.lane).intersection {
+                near_entry && !w.yield_phase.is_yielding() && is_wide(net, w)
+            } else {
                 // One leaving ahead of the mover on its own way is followed.
-                && !w.behind.iter().any(|l| l == v.path[0])
-        };
-        if sweeps {
-            found.push(j);
-        }
-    });
+                (mover_wide || is_wide(net, w)) && !w.behind.iter().any(|l| l == v.path[0])
+            }
+        })
+        .collect();
     found.sort_unstable_by_key(|&j| snap.vehicles[j as usize].id);
     found
 }
@@ -378,12 +372,6 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
         && clear_behind
         && v.sideways.offset == 0.0
         && v.shadow.is_none()
-}
-
-/// A body with less than [`LANE_SPARE`] on each side in its lane: on a
-/// bend the chord it is drawn as leaves its lane.
-pub fn is_wide(net: &crate::network::LaneNetwork, v: &Vehicle) -> bool {
-    net.lane(v.path[0]).width - v.width < 2.0 * LANE_SPARE
 }
 
 /// Of two bodies, `a` goes before `b`: its front is further along the way

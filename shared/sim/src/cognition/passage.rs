@@ -17,8 +17,7 @@ use glam::DVec2;
 use super::Snapshot;
 use super::deadlock::STOPPED_SPEED;
 use super::path::{lanes_ahead, point_on_path};
-use crate::body_grid::{MARGIN, bodies_may_meet};
-use crate::cognition::clearance::is_wide;
+use crate::body_grid::{MARGIN, bodies_may_meet, is_wide};
 use crate::geometry::Obb;
 use crate::vehicle::{BODY_TOLERANCE, Vehicle};
 
