@@ -190,9 +190,6 @@ const SWING_OVER_APPROACH: f64 = 5.0;
 /// The same for a body leaving a sharp turn, metres: its rear swings out as
 /// its heading catches up, up to a body length back from the junction.
 const LEAVING_SWING_OVER_APPROACH: f64 = 12.0;
-/// The longest body a vehicle type has, about, metres: how far beyond the
-/// junction stretch of another body its swing may reach.
-const LONGEST_BODY: f64 = 12.0;
 /// The way is taken in steps this long, metres (the ground between two
 /// places lies within their hull while the body turns little between them).
 const YIELDED_STEP: f64 = 2.5;
@@ -287,8 +284,7 @@ fn sweeping_through_junctions(mover: &Mover, i: usize, near_entry: bool) -> Vec<
     let Mover { snap, v, own, .. } = *mover;
     let net = snap.net;
     let mover_wide = is_wide(net, v);
-    // No nearer than `keep_clear_of_way` looks.
-    let reach = own.swing + own.obb.half_length + YIELDED_WAY + LONGEST_BODY + MARGIN;
+    let near = own.swing + own.obb.half_length + MARGIN;
     let mut found: Vec<u32> = snap
         .bodies
         .sweeping()
@@ -296,6 +292,10 @@ fn sweeping_through_junctions(mover: &Mover, i: usize, near_entry: bool) -> Vec<
         .copied()
         .filter(|&j| {
             let other = snap.bodies.body(j as usize);
+            // No further than `keep_clear_of_way` looks: its stretch is at
+            // most the longer of [`YIELDED_WAY`] and its length.
+            let length = 2.0 * other.obb.half_length;
+            let reach = near + YIELDED_WAY.max(length) + length;
             if j as usize == i || own.obb.centre.distance_squared(other.obb.centre) > reach * reach
             {
                 return false;
