@@ -33,6 +33,11 @@ pub struct BodyBox {
 }
 
 impl BodyBox {
+    /// Whether its front has just left a junction while its rear has not.
+    pub fn leaving_junction(&self, net: &LaneNetwork) -> bool {
+        self.to_leave_junction == 0.0 && !net.lane(self.lane).intersection
+    }
+
     /// Whether this body can meet `other` at all: not at another height,
     /// nor on a lane that crosses the other's at another level.
     pub fn may_meet(&self, other: &BodyBox, net: &LaneNetwork) -> bool {
@@ -76,7 +81,7 @@ pub struct BodyGrid {
     /// The bodies whose ground through a junction others coming up keep
     /// clear of: wide ones on a junction lane, and those whose front has
     /// left a junction while their rear, the drawn heading still lagging
-    /// the turn, has not. Few: indices, in the world's order.
+    /// the turn, has not. Few: indices, in id order.
     sweeping: Vec<u32>,
 }
 
@@ -100,7 +105,7 @@ fn sweeps_through_junction(net: &LaneNetwork, v: &Vehicle, b: &BodyBox) -> bool 
     if net.lane(b.lane).intersection {
         is_wide(net, v)
     } else {
-        b.to_leave_junction == 0.0
+        b.leaving_junction(net)
             && angle_between(v.pose.yaw, v.body_yaw) > LAG_TO_SWING_DEG.to_radians()
     }
 }
@@ -162,6 +167,9 @@ impl BodyGrid {
             };
             self.items.push((self.key(cx, cy), noted));
         }
+        // In id order, as those who keep clear of them read them.
+        self.sweeping
+            .sort_unstable_by_key(|&i| vehicles[i as usize].id);
         self.cells.rebuild(self.key_count, &self.items);
     }
 

@@ -203,9 +203,13 @@ const COS_MOST_TURN_PER_STEP: f64 = 0.99;
 /// body is in a junction: from where its front enters the one ahead to where
 /// its rear leaves it (at most [`YIELDED_WAY`] long), or, with its front out
 /// of one already, from here to where its rear leaves that one.
-fn junction_stretch(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<(f64, f64)> {
-    if let Some(to_leave) = rear_to_leave_junction(net, w) {
-        return Some((0.0, to_leave));
+fn junction_stretch(
+    net: &crate::network::LaneNetwork,
+    w: &Vehicle,
+    body: &BodyBox,
+) -> Option<(f64, f64)> {
+    if body.leaving_junction(net) {
+        return Some((0.0, w.length - w.s));
     }
     let first = w.first_junction_lane?;
     let to_entry = first.start - w.s;
@@ -248,27 +252,15 @@ fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
     // A body swings out over no more than the last metres before the
     // junction: further back, nothing to look at.
     let to_entry = v.first_junction_lane.map(|f| f.start - v.s - own.swing);
-    let sweeping = match to_entry {
-        Some(d) if d <= LEAVING_SWING_OVER_APPROACH => {
-            sweeping_through_junctions(mover, i, d <= SWING_OVER_APPROACH)
-        }
-        _ => Vec::new(),
-    };
+    let sweeping = to_entry
+        .filter(|&d| d <= LEAVING_SWING_OVER_APPROACH)
+        .into_iter()
+        .flat_map(|d| sweeping_through_junctions(mover, i, d <= SWING_OVER_APPROACH));
     given_way
         .into_iter()
         .chain(sweeping)
         .filter_map(|j| keep_clear_of_way(mover, j))
         .min_by(|a, b| a.travel.total_cmp(&b.travel).then(a.by.cmp(&b.by)))
-}
-
-/// Metres the front of `w` still drives until its rear has left the
-/// junction its front has just left; None if its front is in one, or its
-/// body is out.
-fn rear_to_leave_junction(net: &crate::network::LaneNetwork, w: &Vehicle) -> Option<f64> {
-    let leaving = !net.lane(w.path[0]).intersection
-        && w.s < w.length
-        && w.behind.latest().is_some_and(|l| net.lane(l).intersection);
-    leaving.then_some(w.length - w.s)
 }
 
 /// Vehicles near the mover, as it comes up to its junction, whose bodies
@@ -280,37 +272,33 @@ fn rear_to_leave_junction(net: &crate::network::LaneNetwork, w: &Vehicle) -> Opt
 /// turned into). Found by where they are, not by the junction's rules: a
 /// wide body sweeps over lanes those never set against its own. Indices, in
 /// id order.
-fn sweeping_through_junctions(mover: &Mover, i: usize, near_entry: bool) -> Vec<u32> {
+fn sweeping_through_junctions<'a>(
+    mover: &'a Mover,
+    i: usize,
+    near_entry: bool,
+) -> impl Iterator<Item = u32> + 'a {
     let Mover { snap, v, own, .. } = *mover;
     let net = snap.net;
     let mover_wide = is_wide(net, v);
     let near = own.swing + own.obb.half_length + MARGIN;
-    let mut found: Vec<u32> = snap
-        .bodies
-        .sweeping()
-        .iter()
-        .copied()
-        .filter(|&j| {
-            let other = snap.bodies.body(j as usize);
-            // No further than `keep_clear_of_way` looks: its stretch is at
-            // most the longer of [`YIELDED_WAY`] and its length.
-            let length = 2.0 * other.obb.half_length;
-            let reach = near + YIELDED_WAY.max(length) + length;
-            if j as usize == i || own.obb.centre.distance_squared(other.obb.centre) > reach * reach
-            {
-                return false;
-            }
-            let w = &snap.vehicles[j as usize];
-            if net.lane(other.lane).intersection {
-                near_entry && !w.yield_phase.is_yielding() && is_wide(net, w)
-            } else {
-                // One leaving ahead of the mover on its own way is followed.
-                (mover_wide || is_wide(net, w)) && !w.behind.iter().any(|l| l == v.path[0])
-            }
-        })
-        .collect();
-    found.sort_unstable_by_key(|&j| snap.vehicles[j as usize].id);
-    found
+    snap.bodies.sweeping().iter().copied().filter(move |&j| {
+        let other = snap.bodies.body(j as usize);
+        // No further than `keep_clear_of_way` looks: its stretch is at
+        // most the longer of [`YIELDED_WAY`] and its length.
+        let length = 2.0 * other.obb.half_length;
+        let reach = near + YIELDED_WAY.max(length) + length;
+        if j as usize == i || own.obb.centre.distance_squared(other.obb.centre) > reach * reach {
+            return false;
+        }
+        // (The grid lists only wide bodies on junction lanes.)
+        let w = &snap.vehicles[j as usize];
+        if net.lane(other.lane).intersection {
+            near_entry && !w.yield_phase.is_yielding()
+        } else {
+            // One leaving ahead of the mover on its own way is followed.
+            (mover_wide || is_wide(net, w)) && !w.behind.iter().any(|l| l == v.path[0])
+        }
+    })
 }
 
 /// Where the mover stops short of the ground vehicle `j` sweeps through the
@@ -323,7 +311,7 @@ fn keep_clear_of_way(mover: &Mover, j: u32) -> Option<Blocked> {
     if !own.may_meet(other, snap.net) || w.path.contains(&v.path[0]) {
         return None;
     }
-    let (mut from, way) = junction_stretch(snap.net, w)?;
+    let (mut from, way) = junction_stretch(snap.net, w, other)?;
     // Out of reach of the whole stretch: nothing to sweep near.
     let reach = way + 2.0 * other.obb.half_length + own.obb.half_length + own.swing + MARGIN;
     if own.obb.centre.distance_squared(other.obb.centre) > reach * reach {
