@@ -227,7 +227,12 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             _ => TurnDirection::Straight,
         });
         let regulatory: Vec<i64> = r.relations("regulatory_element").collect();
-        let (centre, width) = centreline(&left, &right);
+        let (centre, mut width) = centreline(&left, &right);
+        if left_ids[0] == right_ids[0] || left_ids.last() == right_ids.last() {
+            // A lane opening from (or closing to) a point: as wide as its
+            // wide end, the narrow part being shared with the lane beside.
+            width = dist(left[0], right[0]).max(dist(left[left.len() - 1], right[right.len() - 1]));
+        }
         let joins = (centre[0], centre[centre.len() - 1]);
         let (l0, l1) = first_last(&left_ids);
         let (r0, r1) = first_last(&right_ids);
@@ -285,6 +290,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         }
     }
     keep_to_the_halves(&mut lanelets, &index, &successors, &predecessors);
+    ease_tips(&mut lanelets, &successors, &predecessors);
     let mut lanes: Vec<LaneDef> = lanelets
         .iter()
         .enumerate()
@@ -625,34 +631,63 @@ fn keep_to_the_halves(
         if start.is_none() && end.is_none() {
             continue;
         }
-        let mut eased = densify(&lanelets[i].centre, 1.0);
-        let mut along = vec![0.0];
-        for w in eased.windows(2) {
-            along.push(along[along.len() - 1] + dist(w[0], w[1]));
-        }
-        let length = along[along.len() - 1];
-        let first = eased[0];
-        let last = eased[eased.len() - 1];
-        let start_shift = start.map_or([0.0; 2], |to| [to[0] - first[0], to[1] - first[1]]);
-        let end_shift = end.map_or([0.0; 2], |to| [to[0] - last[0], to[1] - last[1]]);
-        // The share of each end's shift at arc length s: eased in and out
-        // (smoothstep), so the lane leaves the joint in its own heading.
-        let taper = HALF_TAPER.min(length).max(1e-6);
-        let weights = |s: f64| match (start.is_some(), end.is_some()) {
-            (true, true) => {
-                let u = smoothstep(s / length.max(1e-6));
-                (1.0 - u, u)
-            }
-            (true, false) => (smoothstep(1.0 - s / taper), 0.0),
-            _ => (0.0, smoothstep(1.0 - (length - s) / taper)),
-        };
-        for (p, &s) in eased.iter_mut().zip(&along) {
-            let (ws, we) = weights(s);
-            p[0] += start_shift[0] * ws + end_shift[0] * we;
-            p[1] += start_shift[1] * ws + end_shift[1] * we;
-        }
-        lanelets[i].centre = eased;
+        lanelets[i].centre = eased_onto(&lanelets[i].centre, start, end, HALF_TAPER);
     }
+}
+
+/// A lanelet that opens from a point beside another (both bounds start at
+/// one node: a lane added) leaves its centreline's start there, off the
+/// middle of the lanelet it follows; one that closes to a point (a lane
+/// dropped) ends off the middle of the lanelet it leads into. Each is eased
+/// onto that middle over its whole length, as a driver steers into the new
+/// lane or out of the ending one.
+fn ease_tips(lanelets: &mut [Lanelet], successors: &[Vec<usize>], predecessors: &[Vec<usize>]) {
+    for i in 0..lanelets.len() {
+        let l = &lanelets[i];
+        let start = (l.start.0 == l.start.1)
+            .then(|| predecessors[i].first())
+            .flatten()
+            .map(|&p| lanelets[p].centre[lanelets[p].centre.len() - 1]);
+        let end = (l.end.0 == l.end.1)
+            .then(|| successors[i].first())
+            .flatten()
+            .map(|&n| lanelets[n].centre[0]);
+        if start.is_some() || end.is_some() {
+            lanelets[i].centre = eased_onto(&lanelets[i].centre, start, end, f64::INFINITY);
+        }
+    }
+}
+
+/// The centreline moved to start at `start` and end at `end` (where given),
+/// the shift fading out over `taper` metres from each end (or the middle, for
+/// both): eased in and out (smoothstep), so the lane leaves the joint in its
+/// own heading.
+fn eased_onto(centre: &[Xy], start: Option<Xy>, end: Option<Xy>, taper: f64) -> Vec<Xy> {
+    let mut eased = densify(centre, 1.0);
+    let mut along = vec![0.0];
+    for w in eased.windows(2) {
+        along.push(along[along.len() - 1] + dist(w[0], w[1]));
+    }
+    let length = along[along.len() - 1];
+    let first = eased[0];
+    let last = eased[eased.len() - 1];
+    let start_shift = start.map_or([0.0; 2], |to| [to[0] - first[0], to[1] - first[1]]);
+    let end_shift = end.map_or([0.0; 2], |to| [to[0] - last[0], to[1] - last[1]]);
+    let taper = taper.min(length).max(1e-6);
+    let weights = |s: f64| match (start.is_some(), end.is_some()) {
+        (true, true) => {
+            let u = smoothstep(s / length.max(1e-6));
+            (1.0 - u, u)
+        }
+        (true, false) => (smoothstep(1.0 - s / taper), 0.0),
+        _ => (0.0, smoothstep(1.0 - (length - s) / taper)),
+    };
+    for (p, &s) in eased.iter_mut().zip(&along) {
+        let (ws, we) = weights(s);
+        p[0] += start_shift[0] * ws + end_shift[0] * we;
+        p[1] += start_shift[1] * ws + end_shift[1] * we;
+    }
+    eased
 }
 
 /// 0 below 0, 1 above 1, and a smooth S between.
@@ -793,12 +828,14 @@ fn centreline(left: &[Xy], right: &[Xy]) -> (Vec<Xy>, f64) {
 
 /// Successors share the end nodes of both bounds; lanelets whose bounds were
 /// drawn with separate nodes are joined when their centrelines meet (0.5 m).
+/// A lane that opens from or closes to a point shares one node with the
+/// lanelet it branches off or merges into.
 fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
     let mut by_start: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
     for (i, l) in lanelets.iter().enumerate() {
         by_start.entry(l.start).or_default().push(i);
     }
-    lanelets
+    let mut successors: Vec<Vec<usize>> = lanelets
         .iter()
         .enumerate()
         .map(|(i, l)| {
@@ -814,10 +851,41 @@ fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
                     .map(|(j, _)| j)
                     .collect();
             }
+            if next.is_empty() && l.end.0 == l.end.1 {
+                // A lane closing to a point leads into the lanelets that
+                // start there: the one it merges into.
+                next = lanelets
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, m)| m.id != l.id && (m.start.0 == l.end.0 || m.start.1 == l.end.0))
+                    .map(|(j, _)| j)
+                    .collect();
+            }
             next.retain(|&j| j != i);
             next
         })
-        .collect()
+        .collect();
+    // A lane opening from a point follows the lanelets that end there: the
+    // one it branches off.
+    let led_into: Vec<bool> = {
+        let mut led = vec![false; lanelets.len()];
+        successors.iter().flatten().for_each(|&j| led[j] = true);
+        led
+    };
+    for (j, opening) in lanelets.iter().enumerate() {
+        if opening.start.0 != opening.start.1 || led_into[j] {
+            continue;
+        }
+        for (i, l) in lanelets.iter().enumerate() {
+            if i != j
+                && l.id != opening.id
+                && (l.end.0 == opening.start.0 || l.end.1 == opening.start.0)
+            {
+                successors[i].push(j);
+            }
+        }
+    }
+    successors
 }
 
 fn across_end(centre: &[Xy], width: f64) -> [Point; 2] {
@@ -998,6 +1066,59 @@ mod tests {
             "runs east"
         );
         assert_eq!(lane(&imported, "ll_100").next, vec!["ll_101".to_string()]);
+    }
+
+    #[test]
+    fn a_lane_opening_beside_another_follows_the_lane_it_branches_off() {
+        // One lane eastwards (y from -1.5 to 1.5) to x = 20, then two: the
+        // first carries on, a second opens on its left from the point
+        // (20, 1.5) to full width (y from 1.5 to 4.5) at x = 40.
+        let nodes = [
+            (1, 0.0, 1.5),
+            (2, 20.0, 1.5),
+            (3, 0.0, -1.5),
+            (4, 20.0, -1.5),
+            (5, 40.0, 1.5),
+            (6, 40.0, -1.5),
+            (7, 40.0, 4.5),
+        ];
+        let ways: [(i64, &[i64]); 5] = [
+            (10, &[1, 2]),
+            (11, &[3, 4]),
+            (12, &[2, 5]),
+            (13, &[4, 6]),
+            (14, &[2, 7]),
+        ];
+        let text = osm(
+            &nodes,
+            &ways,
+            &[
+                (100, 10, 11, "yes"),
+                (101, 12, 13, "yes"),
+                (102, 14, 12, "yes"),
+            ],
+        );
+        let imported = import("t", &text).unwrap();
+        let mut next = lane(&imported, "ll_100").next.clone();
+        next.sort();
+        assert_eq!(next, ["ll_101", "ll_102"], "both lanes follow the first");
+        let opening = lane(&imported, "ll_102");
+        assert!(
+            (opening.width - 3.0).abs() < 1e-9,
+            "as wide as its wide end"
+        );
+        // Its centreline leaves from the middle of the lane it follows and
+        // ends in its own middle.
+        let (first, last) = (opening.waypoints[0].0, opening.waypoints.last().unwrap().0);
+        assert!((first[0] - 20.0).abs() < 1e-9 && first[1].abs() < 1e-9);
+        assert!((last[0] - 40.0).abs() < 1e-9 && (last[1] - 3.0).abs() < 1e-9);
+        // Only the first lane is where vehicles enter the map.
+        let Some(trafficmesh_model::map::SimulatorDef::Random { lanes, .. }) =
+            imported.map.traffic_simulators.first()
+        else {
+            panic!("a random simulator");
+        };
+        assert_eq!(lanes, &["ll_100"]);
     }
 
     #[test]
