@@ -6,7 +6,8 @@ when every car lanelet is a lane named ll_<id>, and a two-way one (one_way=no)
 also ll_<id>_r for the other way; bounds are oriented as Lanelet2 does (the
 left bound so that the right one lies on its right, then the right bound so
 that the left one lies on its left); every lane whose bounds end on the nodes
-where another lane's bounds start has exactly those successors;
+where another lane's bounds start has exactly those successors (and a lane
+opening from, or closing to, one node is joined where its point lies);
 every traffic-light element referred to by a car lanelet is a light group on
 those lanes; and every crosswalk lanelet is a crosswalk area.
 """
@@ -91,9 +92,23 @@ if set(lanes) != set(lanelets):
     fail(f"lanes {len(lanes)} vs car lanelet ways {len(lanelets)}: "
          f"{sorted(set(lanes) ^ set(lanelets))[:5]}")
 
+# A lane opening from a point (both bounds start at one node) follows the
+# lanelets whose bounds end on that node; one closing to a point leads into
+# those whose bounds start there.
+led_into = {o for _, (_, end, _) in lanelets.items() for o, (s, _, _) in lanelets.items() if s == end}
+openings = {o: s[0] for o, (s, _, _) in lanelets.items() if s[0] == s[1] and o not in led_into}
+
+
+def base(name):
+    return name.removesuffix("_r")
+
+
 checked = 0
 for name, (start, end, _) in lanelets.items():
     expected = {o for o, (s, _, _) in lanelets.items() if s == end and o != name}
+    if not expected and end[0] == end[1]:
+        expected = {o for o, (s, _, _) in lanelets.items() if end[0] in s and base(o) != base(name)}
+    expected |= {o for o, tip in openings.items() if tip in end and base(o) != base(name)}
     if not expected:
         continue
     got = set(lanes[name]["next"])
