@@ -396,3 +396,63 @@ fn a_split_turn_waits_at_the_internal_junction_point() {
     assert!(waited_on_t1, "it did not wait on its first junction lane");
     assert!(turned, "the turn never went");
 }
+
+/// The crossing with a light at the start of each junction lane, as
+/// Autoware's Lanelet2 maps draw them: west-east green for the first 30 s,
+/// south-north red until 33 s.
+fn signalised_crossing() -> MapFile {
+    let mut lanes = crossing_lanes([&[], &[], &[], &[]], false);
+    for l in &mut lanes {
+        let name = l["name"].as_str().unwrap().to_string();
+        if let Some(approach) = name.strip_suffix("_x") {
+            let start = l["waypoints"][0].clone();
+            l["stop_line"] = json!([start, start]);
+            l["traffic_light"] = json!(if ["W", "E"].contains(&approach) {
+                "WE"
+            } else {
+                "SN"
+            });
+        }
+    }
+    map(
+        lanes,
+        json!({ "light_groups": [
+            { "name": "WE", "program": { "green": 30, "yellow": 3, "red": 33 } },
+            { "name": "SN", "program": { "green": 30, "yellow": 3, "red": 33, "offset": 33 } },
+        ] }),
+    )
+}
+
+/// A car that stopped at its red light with its front a little over the
+/// stop line, on the junction lane, waits at red like one before the line:
+/// the crossing traffic, whose light is green, does not take the junction
+/// for blocked by it (each would hold the other's green for ever).
+#[test]
+fn a_car_standing_at_red_just_over_its_stop_line_does_not_block_the_junction() {
+    let mut w = world(&signalised_crossing(), WorldConfig::default());
+    let at_red = w.place_vehicle("Taxi", "S_x", 0.3, 0.0).unwrap();
+    let crossing = w.place_vehicle("Taxi", "W_in", 60.0, 10.0).unwrap();
+    let s_x = w.network().lane_id("S_x").unwrap();
+    let mut blocked = false;
+    let crossed = run_until(&mut w, 25.0, |w| {
+        assert_no_overlap(w);
+        let (r, c) = (vehicle(w, at_red), vehicle(w, crossing));
+        assert!(
+            r.path[0] == s_x && r.s < 0.5,
+            "the car at red moved: {:.2} m",
+            r.s
+        );
+        blocked |= c.yield_phase == YieldPhase::IntersectionBlocked;
+        w.network().lane(c.path[0]).name == "W_out"
+    });
+    let c = vehicle(&w, crossing);
+    assert!(
+        crossed && !blocked,
+        "the crossing car waited for the one standing at red (blocked: {blocked}; {:?} {:?} on {} at {:.1} m, {:?})",
+        c.yield_phase,
+        c.speed_mode,
+        w.network().lane(c.path[0]).name,
+        c.s,
+        c.dominating
+    );
+}

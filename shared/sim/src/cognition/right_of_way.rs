@@ -51,7 +51,8 @@ pub struct RowInfo {
     /// Within the approach window and not queued behind another vehicle.
     pub considered: bool,
     pub on_intersection: bool,
-    /// yieldingPriorityAtTrafficLight: before the junction at a red light.
+    /// yieldingPriorityAtTrafficLight: before the junction at a red light
+    /// (or standing on its stop line, a little over it).
     pub waiting_at_red: bool,
     /// Moving at more than a crawl, or let through by deadlock breaking:
     /// before the junction, only such a vehicle is about to cross.
@@ -105,7 +106,10 @@ impl RowInfo {
             considered: offset <= window && !obstructed,
             crossing_soon: v.speed >= CRAWL_SPEED || v.forced_through.is_some(),
             on_intersection,
-            waiting_at_red: !on_intersection && v.passability == LightColor::Red,
+            // On the junction lane, only one standing on its stop line (the
+            // light's check holds it there, `light::PAST_LINE`).
+            waiting_at_red: v.passability == LightColor::Red
+                && (!on_intersection || (v.stops_at_light && v.distance_to_light <= 0.0)),
             entry: first.entry,
             junction: first.junction,
             ..seen
@@ -566,6 +570,7 @@ impl Ctx<'_, '_> {
         self.others()
             .find(|o| {
                 o.on_intersection
+                    && !o.waiting_at_red
                     && !o.yield_phase.is_yielding_due_to_rules()
                     && !self.same_side(o)
                     && self.on_right(o)
@@ -579,6 +584,9 @@ impl Ctx<'_, '_> {
         self.others()
             .find(|o| {
                 o.on_intersection
+                    // Over its stop line by a little, its red light holds it
+                    // there: it crosses nobody's way now (nor on the right).
+                    && !o.waiting_at_red
                     // Let through, or impatient, we go: one holding on the
                     // junction may hold for us (a body in our way still stops us).
                     && !(o.yield_phase == YieldPhase::ForcingPriority
