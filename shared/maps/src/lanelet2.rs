@@ -84,6 +84,23 @@ struct Lanelet {
     regulatory: Vec<i64>,
 }
 
+impl Lanelet {
+    /// A lane opening from a point beside another: both bounds start at one node.
+    fn opens(&self) -> bool {
+        self.start.0 == self.start.1
+    }
+
+    /// A lane closing to a point: both bounds end at one node.
+    fn closes(&self) -> bool {
+        self.end.0 == self.end.1
+    }
+}
+
+/// Does the pair of end nodes `ends` (left, right) include `node`?
+fn has_node(ends: (i64, i64), node: i64) -> bool {
+    ends.0 == node || ends.1 == node
+}
+
 fn id_of(doc: &Document, n: Node, name: &str) -> Result<i64, ImportError> {
     let text = attr(doc, n, name)?;
     text.parse().map_err(|_| {
@@ -227,12 +244,7 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             _ => TurnDirection::Straight,
         });
         let regulatory: Vec<i64> = r.relations("regulatory_element").collect();
-        let (centre, mut width) = centreline(&left, &right);
-        if left_ids[0] == right_ids[0] || left_ids.last() == right_ids.last() {
-            // A lane opening from (or closing to) a point: as wide as its
-            // wide end, the narrow part being shared with the lane beside.
-            width = dist(left[0], right[0]).max(dist(left[left.len() - 1], right[right.len() - 1]));
-        }
+        let (centre, width) = centreline(&left, &right);
         let joins = (centre[0], centre[centre.len() - 1]);
         let (l0, l1) = first_last(&left_ids);
         let (r0, r1) = first_last(&right_ids);
@@ -248,6 +260,13 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
             turn,
             regulatory,
         };
+        if along.opens() || along.closes() {
+            // As wide as its wide end: the narrow part is shared with the
+            // lane beside.
+            along.width =
+                dist(left[0], right[0]).max(dist(left[left.len() - 1], right[right.len() - 1]));
+        }
+        let width = along.width;
         if r.tag("one_way") == Some("no") {
             // Both ways on one lanelet (Lanelet2's inverted lanelet for the
             // other): each keeps to its right half.
@@ -644,11 +663,13 @@ fn keep_to_the_halves(
 fn ease_tips(lanelets: &mut [Lanelet], successors: &[Vec<usize>], predecessors: &[Vec<usize>]) {
     for i in 0..lanelets.len() {
         let l = &lanelets[i];
-        let start = (l.start.0 == l.start.1)
+        let start = l
+            .opens()
             .then(|| predecessors[i].first())
             .flatten()
             .map(|&p| lanelets[p].centre[lanelets[p].centre.len() - 1]);
-        let end = (l.end.0 == l.end.1)
+        let end = l
+            .closes()
             .then(|| successors[i].first())
             .flatten()
             .map(|&n| lanelets[n].centre[0]);
@@ -851,13 +872,13 @@ fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
                     .map(|(j, _)| j)
                     .collect();
             }
-            if next.is_empty() && l.end.0 == l.end.1 {
+            if next.is_empty() && l.closes() {
                 // A lane closing to a point leads into the lanelets that
                 // start there: the one it merges into.
                 next = lanelets
                     .iter()
                     .enumerate()
-                    .filter(|(_, m)| m.id != l.id && (m.start.0 == l.end.0 || m.start.1 == l.end.0))
+                    .filter(|(_, m)| m.id != l.id && has_node(m.start, l.end.0))
                     .map(|(j, _)| j)
                     .collect();
             }
@@ -867,20 +888,17 @@ fn successors(lanelets: &[Lanelet]) -> Vec<Vec<usize>> {
         .collect();
     // A lane opening from a point follows the lanelets that end there: the
     // one it branches off.
-    let led_into: Vec<bool> = {
-        let mut led = vec![false; lanelets.len()];
-        successors.iter().flatten().for_each(|&j| led[j] = true);
-        led
-    };
+    let mut led_into = vec![false; lanelets.len()];
+    successors
+        .iter()
+        .flatten()
+        .for_each(|&j| led_into[j] = true);
     for (j, opening) in lanelets.iter().enumerate() {
-        if opening.start.0 != opening.start.1 || led_into[j] {
+        if !opening.opens() || led_into[j] {
             continue;
         }
         for (i, l) in lanelets.iter().enumerate() {
-            if i != j
-                && l.id != opening.id
-                && (l.end.0 == opening.start.0 || l.end.1 == opening.start.0)
-            {
+            if l.id != opening.id && has_node(l.end, opening.start.0) {
                 successors[i].push(j);
             }
         }
