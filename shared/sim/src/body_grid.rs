@@ -99,15 +99,28 @@ pub fn is_wide(net: &LaneNetwork, v: &Vehicle) -> bool {
     net.lane(v.path[0]).width - v.width < 2.0 * LANE_SPARE
 }
 
+/// Whether the drawn heading of `v` lags its chord (in or just out of a
+/// turn sharper than a body can follow): its body still swings round.
+fn heading_lags(v: &Vehicle) -> bool {
+    angle_between(v.pose.yaw, v.body_yaw) > LAG_TO_SWING_DEG.to_radians()
+}
+
 /// Whether the body of `v` (its box `b`) still sweeps through a junction
 /// (see [`BodyGrid::sweeping`]).
-fn sweeps_through_junction(net: &LaneNetwork, v: &Vehicle, b: &BodyBox) -> bool {
-    if net.lane(b.lane).intersection {
-        is_wide(net, v)
+fn sweeps_through_junction(net: &LaneNetwork, v: &Vehicle, b: &BodyBox, turn_radius: f64) -> bool {
+    let lags = heading_lags(v);
+    let lane = net.lane(b.lane);
+    if lane.intersection {
+        is_wide(net, v) || lags || too_sharp_to_follow(lane, turn_radius)
     } else {
-        b.leaving_junction(net)
-            && angle_between(v.pose.yaw, v.body_yaw) > LAG_TO_SWING_DEG.to_radians()
+        b.leaving_junction(net) && lags
     }
+}
+
+/// Whether a junction lane turns on a tighter radius than a drawn heading
+/// turning on `turn_radius` can follow.
+fn too_sharp_to_follow(lane: &crate::network::Lane, turn_radius: f64) -> bool {
+    lane.line.total_turn() * turn_radius > lane.length()
 }
 
 /// A cell's side, metres: about a bus's length.
@@ -156,7 +169,7 @@ impl BodyGrid {
             if vehicles[i].has_squeezed() {
                 self.squeezed.push((lo, hi));
             }
-            if sweeps_through_junction(net, &vehicles[i], b) {
+            if sweeps_through_junction(net, &vehicles[i], b, turn_radius) {
                 self.sweeping.push(i as u32);
             }
             let (cx, cy) = cell_of(lo);
@@ -250,7 +263,9 @@ fn to_leave_junction(net: &LaneNetwork, v: &Vehicle) -> f64 {
     let lane = net.lane(v.path[0]);
     if lane.intersection {
         (lane.length() - v.s).max(0.0)
-    } else if v.s < v.length && v.behind.latest().is_some_and(|l| net.lane(l).intersection) {
+    } else if (v.s < v.length || heading_lags(v))
+        && v.behind.latest().is_some_and(|l| net.lane(l).intersection)
+    {
         0.0
     } else {
         f64::INFINITY

@@ -454,3 +454,87 @@ fn a_truck_held_back_mid_lane_change_is_drawn_where_it_was_forecast() {
         );
     }
 }
+
+/// A corner of a generated network where two two-way streets meet at 60
+/// degrees (netgenerate's random networks have many; the points are one of
+/// them): the right turn round its inside turns on a 1.7 m radius, sharper
+/// than a body can follow, so a car out of it is drawn with its heading 40
+/// degrees behind its lane, its front over the end of the oncoming lane;
+/// the left turn the other way loops round the outside.
+fn sixty_degree_corner() -> trafficmesh_model::MapFile {
+    let lane_of = |name: &str, points: &[[f64; 2]], next: &[&str], junction: bool| {
+        let mut l = lane(name, points, next);
+        l["width"] = json!(3.2);
+        l["intersection"] = json!(junction);
+        l
+    };
+    map(
+        vec![
+            lane_of("in", &[[-38.28, 95.72], [70.86, 89.24]], &["right"], false),
+            lane_of(
+                "right",
+                &[
+                    [70.86, 89.24],
+                    [71.97, 89.03],
+                    [72.55, 88.54],
+                    [72.59, 87.78],
+                    [72.1, 86.76],
+                ],
+                &["out"],
+                true,
+            ),
+            lane_of("out", &[[72.1, 86.76], [-2.65, -26.02]], &[], false),
+            lane_of(
+                "back_in",
+                &[[0.02, -27.79], [74.76, 84.99]],
+                &["left"],
+                false,
+            ),
+            lane_of(
+                "left",
+                &[
+                    [74.76, 84.99],
+                    [76.26, 88.06],
+                    [76.14, 90.33],
+                    [74.4, 91.79],
+                    [71.05, 92.44],
+                ],
+                &["back_out"],
+                true,
+            ),
+            lane_of("back_out", &[[71.05, 92.44], [-38.09, 98.92]], &[], false),
+        ],
+        json!({}),
+    )
+}
+
+/// A van or a car turns the sharp corner while a truck comes up the
+/// oncoming lane to turn it the other way, the truck from wherever it
+/// still has room to stop before the van's swing begins (up to 72 m along
+/// its lane; later, arriving as the van enters the corner, it stands in
+/// the swing already). The truck keeps clear of the ground the van's body
+/// swings over until its heading has caught up with the street it turns
+/// into, and the van, which must clear the junction, goes before the truck
+/// even where its lagging heading points 140 degrees from the truck's (not
+/// head-on, where they went by their fronts): each had stood waiting for
+/// the other until the gridlock valve took one off.
+#[test]
+fn a_body_swinging_out_of_a_corner_too_sharp_to_follow_is_kept_clear_of() {
+    for kind in ["Van", "Taxi"] {
+        for from in (0..=16).map(|k| 40.0 + 2.0 * k as f64) {
+            let mut w = world(&sixty_degree_corner(), at_sumo_ticks_and_lane_limits());
+            w.place_vehicle(kind, "in", 60.0, 13.0).unwrap();
+            w.place_vehicle("Truck_2t", "back_in", from, 13.0).unwrap();
+            let through = run_until(&mut w, 60.0, |w| {
+                assert_no_overlap(w);
+                w.vehicles().is_empty()
+            });
+            assert!(through, "both drive on ({kind}, truck from {from} m)");
+            assert_eq!(
+                w.wait_stats().jam_resolutions,
+                0,
+                "no jam resolution ({kind}, truck from {from} m)"
+            );
+        }
+    }
+}

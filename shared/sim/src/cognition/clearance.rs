@@ -202,14 +202,18 @@ const COS_MOST_TURN_PER_STEP: f64 = 0.99;
 /// The stretch of the way of `w`, metres from its front, over which its
 /// body is in a junction: from where its front enters the one ahead to where
 /// its rear leaves it (at most [`YIELDED_WAY`] long), or, with its front out
-/// of one already, from here to where its rear leaves that one.
+/// of one already, from here to where its rear leaves that one; in either
+/// case on to where a heading lagging a sharp turn has caught up.
 fn junction_stretch(
     net: &crate::network::LaneNetwork,
     w: &Vehicle,
     body: &BodyBox,
 ) -> Option<(f64, f64)> {
     if body.leaving_junction(net) {
-        return Some((0.0, w.length - w.s));
+        let line = &net.lane(w.path[0]).line;
+        let along = line.direction(line.segment_at(w.s));
+        let swing = heading_catches_up_in(w, along);
+        return Some((0.0, (w.length - w.s).max(swing).min(YIELDED_WAY)));
     }
     let first = w.first_junction_lane?;
     let to_entry = first.start - w.s;
@@ -219,11 +223,24 @@ fn junction_stretch(
         .take_while(|l| l.intersection)
         .map(|l| l.length())
         .sum();
+    let exit = w.path[first.k..]
+        .iter()
+        .copied()
+        .find(|&l| !net.lane(l).intersection);
     let from = to_entry.max(0.0);
-    Some((
-        from,
-        (to_entry + through + w.length).min(from + YIELDED_WAY),
-    ))
+    let mut to = to_entry + through + w.length;
+    if let Some(exit) = exit {
+        to = to.max(heading_catches_up_in(w, net.lane(exit).line.direction(0)));
+    }
+    Some((from, to.min(from + YIELDED_WAY)))
+}
+
+/// Metres `w` drives before its drawn heading has turned to `heading`,
+/// turning no faster than a car can: where it lags its way (a turn sharper
+/// than a body can follow), the body swings on over that stretch.
+fn heading_catches_up_in(w: &Vehicle, heading: DVec2) -> f64 {
+    crate::geometry::angle_between(w.pose.yaw, heading.y.atan2(heading.x))
+        * crate::pose::TURN_RADIUS
 }
 
 /// A vehicle coming up to a junction keeps clear of the ground that a wide
@@ -265,7 +282,9 @@ fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
 
 /// Vehicles near the mover, as it comes up to its junction, whose bodies
 /// still sweep through a junction: a wide one driving through it (not held
-/// by a rule), where the mover is `near_entry`; and one whose front has left
+/// by a rule), or one whose turn there is sharper than its body can follow
+/// (its drawn heading lags: the body swings out of the lane), where the
+/// mover is `near_entry`; and one whose front has left
 /// a junction and whose rear has not, its heading still lagging the turn,
 /// where it or the mover is wide (the rest of that swing reaches over the
 /// end of the lane the mover comes up: the oncoming lane of the street it
@@ -290,7 +309,7 @@ fn sweeping_through_junctions<'a>(
         if j as usize == i || own.obb.centre.distance_squared(other.obb.centre) > reach * reach {
             return false;
         }
-        // (The grid lists only wide bodies on junction lanes.)
+        // (The grid lists only wide or lagging bodies on junction lanes.)
         let w = &snap.vehicles[j as usize];
         if net.lane(other.lane).intersection {
             near_entry && !w.yield_phase.is_yielding()
@@ -369,9 +388,12 @@ fn on_open_road(snap: &Snapshot, v: &Vehicle, own: &BodyBox) -> bool {
 /// right from the other way) the one nearer the end of its junction lane,
 /// which leaves the ground first, goes first; of one in a junction, or
 /// with its rear still in one (a truck swinging out of its turn over the
-/// end of the oncoming lane), and one that has not entered, the one in the
-/// junction, which must clear it, while the other can wait before it;
-/// level, its id is lower.
+/// end of the oncoming lane), and one that has not entered, heading more
+/// than 120 degrees apart, the one in the junction, which must clear it,
+/// while the other can wait before it (a body leaving a sharp turn, its
+/// drawn heading still lagging, may point well off the oncoming lane's
+/// reverse: compared by their fronts, it would wait for the body waiting
+/// for it); level, its id is lower.
 /// Antisymmetric, so that of two bodies exactly one keeps clear of the
 /// other's sweep.
 fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
@@ -383,14 +405,16 @@ fn goes_first(a: &BodyBox, b: &BodyBox) -> bool {
         if (a.to_leave_junction - b.to_leave_junction).abs() > LEVEL {
             return a.to_leave_junction < b.to_leave_junction;
         }
+    } else if way.length_squared() <= TURNS_AGAINST
+        && a.to_leave_junction.is_finite() != b.to_leave_junction.is_finite()
+    {
+        return a.to_leave_junction.is_finite();
     } else if way.length_squared() > HEADING_AGAINST {
         let front = |x: &BodyBox| (x.obb.centre + x.obb.axis * x.obb.half_length).dot(way);
         let (fa, fb) = (front(a), front(b));
         if (fa - fb).abs() > LEVEL {
             return fa > fb;
         }
-    } else if a.to_leave_junction.is_finite() != b.to_leave_junction.is_finite() {
-        return a.to_leave_junction.is_finite();
     }
     a.id < b.id
 }
@@ -597,15 +621,41 @@ mod tests {
         assert!(!goes_first(&bus, &car));
     }
 
+    /// A van just out of a corner too sharp to follow (its rear still in the
+    /// junction, its drawn heading 38 degrees behind its lane) and a truck
+    /// waiting at the end of the oncoming lane, 141 degrees apart: the van,
+    /// which must clear the junction, goes first, though the truck's front
+    /// lies further along the way both are heading.
+    #[test]
+    fn a_body_leaving_a_sharp_turn_goes_before_one_waiting_on_the_oncoming_lane() {
+        let van = body(1, (771.2, 1585.5), -84.6, 0.0);
+        let truck = body(2, (770.5, 1578.5), 56.5, f64::INFINITY);
+        assert!(goes_first(&van, &truck));
+        assert!(!goes_first(&truck, &van));
+    }
+
     /// Off junction lanes the same two bodies go by where their fronts lie
     /// along the way both are heading: the rule for turns is the turns'.
     #[test]
     fn bodies_heading_against_each_other_off_junctions_go_by_their_fronts() {
         let a = body(1, (1016.0, 134.6), -4.0, f64::INFINITY);
-        let b = body(2, (1019.0, 137.5), -149.0, 3.0);
+        let b = body(2, (1019.0, 137.5), -149.0, f64::INFINITY);
         assert_eq!(goes_first(&a, &b), !goes_first(&b, &a));
         let way = a.obb.axis + b.obb.axis;
         let front = |x: &BodyBox| (x.obb.centre + x.obb.axis * x.obb.half_length).dot(way);
         assert_eq!(goes_first(&a, &b), front(&a) > front(&b));
+    }
+
+    /// With one of them in the junction (3 m to go on its junction lane)
+    /// and the other not, the one in the junction, which must clear it,
+    /// goes first, whichever front lies further along.
+    #[test]
+    fn of_bodies_heading_against_each_other_the_one_in_the_junction_goes_first() {
+        let a = body(1, (1016.0, 134.6), -4.0, f64::INFINITY);
+        for (x, y) in [(1019.0, 137.5), (1012.0, 137.5)] {
+            let b = body(2, (x, y), -149.0, 3.0);
+            assert!(goes_first(&b, &a), "b at ({x}, {y})");
+            assert!(!goes_first(&a, &b), "b at ({x}, {y})");
+        }
     }
 }
