@@ -258,7 +258,8 @@ impl BodyGrid {
 }
 
 /// Metres the front still drives on the junction lane it is on; 0 with the
-/// front just past one (the body still in it), infinite elsewhere.
+/// front just past one (the body still in it, or its drawn heading still
+/// swinging round the turn), infinite elsewhere.
 fn to_leave_junction(net: &LaneNetwork, v: &Vehicle) -> f64 {
     let lane = net.lane(v.path[0]);
     if lane.intersection {
