@@ -108,12 +108,11 @@ fn heading_lags(v: &Vehicle) -> bool {
 /// Whether the body of `v` (its box `b`) still sweeps through a junction
 /// (see [`BodyGrid::sweeping`]).
 fn sweeps_through_junction(net: &LaneNetwork, v: &Vehicle, b: &BodyBox, turn_radius: f64) -> bool {
-    let lags = heading_lags(v);
     let lane = net.lane(b.lane);
     if lane.intersection {
-        is_wide(net, v) || lags || too_sharp_to_follow(lane, turn_radius)
+        is_wide(net, v) || too_sharp_to_follow(lane, turn_radius) || heading_lags(v)
     } else {
-        b.leaving_junction(net) && lags
+        b.leaving_junction(net) && heading_lags(v)
     }
 }
 
@@ -264,8 +263,8 @@ fn to_leave_junction(net: &LaneNetwork, v: &Vehicle) -> f64 {
     let lane = net.lane(v.path[0]);
     if lane.intersection {
         (lane.length() - v.s).max(0.0)
-    } else if (v.s < v.length || heading_lags(v))
-        && v.behind.latest().is_some_and(|l| net.lane(l).intersection)
+    } else if v.behind.latest().is_some_and(|l| net.lane(l).intersection)
+        && (v.s < v.length || heading_lags(v))
     {
         0.0
     } else {

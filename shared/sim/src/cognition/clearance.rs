@@ -217,19 +217,18 @@ fn junction_stretch(
     }
     let first = w.first_junction_lane?;
     let to_entry = first.start - w.s;
-    let through: f64 = w.path[first.k..]
+    let ahead = &w.path[first.k..];
+    let in_junction = ahead
         .iter()
-        .map(|&l| net.lane(l))
-        .take_while(|l| l.intersection)
-        .map(|l| l.length())
+        .take_while(|&&l| net.lane(l).intersection)
+        .count();
+    let through: f64 = ahead[..in_junction]
+        .iter()
+        .map(|&l| net.lane(l).length())
         .sum();
-    let exit = w.path[first.k..]
-        .iter()
-        .copied()
-        .find(|&l| !net.lane(l).intersection);
     let from = to_entry.max(0.0);
     let mut to = to_entry + through + w.length;
-    if let Some(exit) = exit {
+    if let Some(&exit) = ahead.get(in_junction) {
         to = to.max(heading_catches_up_in(w, net.lane(exit).line.direction(0)));
     }
     Some((from, to.min(from + YIELDED_WAY)))
@@ -284,13 +283,12 @@ fn way_of_wide_bodies(mover: &Mover, i: usize) -> Option<Blocked> {
 /// still sweep through a junction: a wide one driving through it (not held
 /// by a rule), or one whose turn there is sharper than its body can follow
 /// (its drawn heading lags: the body swings out of the lane), where the
-/// mover is `near_entry`; and one whose front has left
-/// a junction and whose rear has not, its heading still lagging the turn,
-/// where it or the mover is wide (the rest of that swing reaches over the
-/// end of the lane the mover comes up: the oncoming lane of the street it
-/// turned into). Found by where they are, not by the junction's rules: a
-/// wide body sweeps over lanes those never set against its own. Indices, in
-/// id order.
+/// mover is `near_entry`; and one whose front has left a junction and whose
+/// rear has not, its heading still lagging the turn, where it or the mover
+/// is wide (the rest of that swing reaches over the end of the lane the
+/// mover comes up: the oncoming lane of the street it turned into). Found
+/// by where they are, not by the junction's rules: a wide body sweeps over
+/// lanes those never set against its own. Indices, in id order.
 fn sweeping_through_junctions<'a>(
     mover: &'a Mover,
     i: usize,
