@@ -9,6 +9,7 @@ mod sim_support;
 mod support;
 
 mod hostile;
+mod permitted_turns;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;

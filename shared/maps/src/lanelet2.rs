@@ -430,6 +430,14 @@ pub fn import(name: &str, text: &str) -> Result<Imported, ImportError> {
         }
     }
 
+    let permitted = crate::permitted_turns::turns_yield_to_oncoming(&mut lanes, &light_groups);
+    if permitted > 0 {
+        warnings.push(format!(
+            "{permitted} turn(s) across an oncoming straight way of the same synthesised phase \
+             yield to it (pairs no right_of_way element covers)"
+        ));
+    }
+
     let crosswalks = crosswalks
         .into_iter()
         .map(|(id, polygon)| {

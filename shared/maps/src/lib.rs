@@ -10,6 +10,7 @@ pub mod grid;
 pub mod import;
 mod joints;
 mod lanelet2;
+mod permitted_turns;
 mod sumo;
 mod sumo_levels;
 pub mod sumo_routes;
