@@ -539,9 +539,10 @@ fn node_positions(
 }
 
 /// A roundabout's ring: lanes no longer than this, metres...
-const RING_LANE_MAX: f64 = 20.0;
-/// ... closing a loop no longer than this, metres, that turns once round.
-const RING_MAX: f64 = 120.0;
+const RING_LANE_MAX: f64 = 25.0;
+/// ... closing a loop no longer than this, metres (a roundabout 64 m
+/// across), that turns once round.
+const RING_MAX: f64 = 200.0;
 /// The most lanes a ring is looked for with.
 const RING_MAX_LANES: usize = 16;
 
@@ -1189,36 +1190,45 @@ mod tests {
 
     #[test]
     fn lanes_entering_a_roundabout_yield_to_the_ring() {
-        // A ring of four quarter circles anticlockwise round the origin
-        // (inner bound 6.5 m, outer 9.5 m; nodes 1.. inside, 101.. outside),
-        // and an entry from the east that joins it at the top.
+        // A small roundabout, and a large one (54 m across, as
+        // mapping_example's, its ring's lanelets 21 m long).
+        for radius in [8.0, 27.0] {
+            lanes_entering_a_ring_yield_to_it(radius);
+        }
+    }
+
+    fn lanes_entering_a_ring_yield_to_it(radius: f64) {
+        // A ring of eight arcs anticlockwise round the origin (bounds 1.5 m
+        // inside and outside `radius`; nodes 1.. inside, 101.. outside), and
+        // an entry from the east that joins it at the top.
+        let (inner, outer) = (radius - 1.5, radius + 1.5);
         let at = |r: f64, k: usize| {
             let a = k as f64 * std::f64::consts::FRAC_PI_8;
             (r * a.cos(), r * a.sin())
         };
         let mut nodes: Vec<(i64, f64, f64)> = Vec::new();
         for k in 0..16 {
-            let ((ix, iy), (ox, oy)) = (at(6.5, k), at(9.5, k));
+            let ((ix, iy), (ox, oy)) = (at(inner, k), at(outer, k));
             nodes.push((1 + k as i64, ix, iy));
             nodes.push((101 + k as i64, ox, oy));
         }
-        nodes.extend([(201, 20.0, 6.5), (202, 20.0, 9.5)]);
-        let quarter = |q: usize, base: i64| -> Vec<i64> {
-            (4 * q..=4 * q + 4)
+        nodes.extend([(201, radius + 12.0, inner), (202, radius + 12.0, outer)]);
+        let eighth = |q: usize, base: i64| -> Vec<i64> {
+            (2 * q..=2 * q + 2)
                 .map(|k| base + (k % 16) as i64)
                 .collect()
         };
-        let bounds: Vec<(i64, Vec<i64>)> = (0..4)
+        let bounds: Vec<(i64, Vec<i64>)> = (0..8)
             .flat_map(|q| {
                 [
-                    (10 + q as i64, quarter(q, 1)),
-                    (20 + q as i64, quarter(q, 101)),
+                    (10 + q as i64, eighth(q, 1)),
+                    (20 + q as i64, eighth(q, 101)),
                 ]
             })
             .chain([(30, vec![201, 5]), (31, vec![202, 105])])
             .collect();
         let ways: Vec<(i64, &[i64])> = bounds.iter().map(|(id, n)| (*id, n.as_slice())).collect();
-        let lanelets: Vec<(i64, i64, i64, &str)> = (0..4)
+        let lanelets: Vec<(i64, i64, i64, &str)> = (0..8)
             .map(|q| (100 + q, 10 + q, 20 + q, "yes"))
             .chain([(200, 30, 31, "yes")])
             .collect();
@@ -1228,15 +1238,15 @@ mod tests {
                 .warnings
                 .iter()
                 .any(|w| w.starts_with("1 roundabout(s) found")),
-            "{:?}",
+            "radius {radius}: {:?}",
             imported.warnings
         );
-        assert_eq!(lane(&imported, "ll_200").next, vec!["ll_101".to_string()]);
+        assert_eq!(lane(&imported, "ll_200").next, vec!["ll_102".to_string()]);
         assert_eq!(
             lane(&imported, "ll_200").right_of_way,
-            vec!["ll_100".to_string()]
+            vec!["ll_101".to_string()]
         );
-        for q in 100..104 {
+        for q in 100..108 {
             assert!(lane(&imported, &format!("ll_{q}")).right_of_way.is_empty());
         }
     }

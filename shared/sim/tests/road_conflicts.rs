@@ -484,3 +484,54 @@ fn a_truck_waits_for_a_narrow_stretch_before_the_junction_not_inside_it() {
         "in some of the runs the truck had to wait"
     );
 }
+
+/// A two-way stub at a map's edge, each way 2.24 m wide (as
+/// `mapping_example.osm`'s lanelet 45576): a truck and a car cannot pass on
+/// it, two cars can. A car is not put at one end while a truck is on the
+/// stub: it would be committed head on against the truck, each waiting for
+/// the other. Once the truck is through, or where the other is a car, it is.
+#[test]
+fn no_vehicle_is_put_into_a_narrow_stretch_an_oncoming_body_it_cannot_pass_is_in() {
+    let stub = || {
+        // Each way a long lanelet and a short one at the far end, where
+        // the car is put.
+        let mut lanes = vec![
+            lane("in", &[[0.0, 0.0], [25.0, 0.0]], &["in_end"]),
+            lane("in_end", &[[25.0, 0.0], [30.0, 0.0]], &[]),
+            lane("out", &[[30.0, 2.24], [25.0, 2.24]], &["out_on"]),
+            lane("out_on", &[[25.0, 2.24], [0.0, 2.24]], &[]),
+        ];
+        for l in &mut lanes {
+            l["width"] = json!(2.24);
+        }
+        unmarked_map(lanes)
+    };
+    for (oncoming, put) in [("Truck_2t", false), ("SmallCar", true)] {
+        let mut w = world(&stub(), WorldConfig::default());
+        let car = w.kind_index("SmallCar").unwrap();
+        let out = w.network().lane_id("out").unwrap();
+        // Driving in slowly, far enough from the car's lanelet to stop
+        // before it.
+        let other = w.place_vehicle(oncoming, "in", 10.0, 2.0).unwrap();
+        w.step();
+        let admitted = w.admit_spawn(car, out, None, 10, &mut Vec::new());
+        assert_eq!(
+            admitted.is_ok(),
+            put,
+            "a car put facing a {oncoming} on the stub: {admitted:?}"
+        );
+        if !put {
+            run_until(&mut w, 30.0, |w| w.vehicle(other).is_none());
+            assert!(
+                w.vehicle(other).is_none(),
+                "the {oncoming} drove off the stub"
+            );
+            // The lane index is taken at the start of a tick.
+            w.step();
+            assert!(
+                w.admit_spawn(car, out, None, 10, &mut Vec::new()).is_ok(),
+                "the car is put once the stub is clear"
+            );
+        }
+    }
+}

@@ -37,6 +37,11 @@ const CLEARANCE: f64 = 1.0;
 const APPROACH_LOOKBACK: f64 = 60.0;
 /// Over at most this many lanes before it.
 const APPROACH_LANES: usize = 6;
+/// How far along its way a new body looks for a narrow stretch with a body
+/// in it that it cannot pass, metres: put inside one end of such a stretch
+/// (a two-way stub at a map's edge, too narrow for a truck and a car), it
+/// would be committed through it, head on against that body.
+const NARROW_AHEAD: f64 = 30.0;
 
 /// A spawn order from outside the world (the spawner service's), admitted in
 /// the next tick's spawn phase, after the world's own requests: the point of
@@ -171,6 +176,9 @@ impl World {
         }) {
             return false;
         }
+        if self.narrow_stretch_taken(lane, NARROW_AHEAD, kind.width) {
+            return false;
+        }
         // Vehicles about to drive onto the lane, or into a conflict zone the
         // new body stands in: crossing traffic may come over several short
         // lanes (a lane a metre long between two others hides nobody).
@@ -218,6 +226,21 @@ impl World {
                         .any(|z| z.start < overflow && !z.passable(Body::new_on_lane(width)))
                     || self.ahead_taken(n, overflow - self.net.lane(n).length(), width)
             })
+    }
+
+    /// Does a road conflict zone that starts within `reach` metres of
+    /// `lane`'s start (or on the lanes after it) hold a body that a vehicle
+    /// `width` wide cannot pass?
+    fn narrow_stretch_taken(&self, lane: LaneId, reach: f64, width: f64) -> bool {
+        let l = self.net.lane(lane);
+        self.index
+            .blocked_zones(lane)
+            .iter()
+            .any(|z| z.road && z.start < reach && !z.passable(Body::new_on_lane(width)))
+            || (reach > l.length()
+                && l.next
+                    .iter()
+                    .any(|&n| self.narrow_stretch_taken(n, reach - l.length(), width)))
     }
 
     /// Does a vehicle on `lane`, or on up to `lanes_back` lanes before it,
