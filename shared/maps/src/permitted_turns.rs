@@ -7,7 +7,10 @@
 
 use std::collections::HashMap;
 
+use glam::DVec2;
+
 use trafficmesh_model::enums::TurnDirection;
+use trafficmesh_model::geometry::segments_intersect;
 use trafficmesh_model::map::{LaneDef, LightGroupDef, Point};
 
 /// Junction lanes whose first (or last) points lie this near come from
@@ -64,25 +67,16 @@ fn ends(lane: &LaneDef) -> &Point {
 }
 
 fn apart(a: &Point, b: &Point) -> bool {
-    let (a, b) = (a.0, b.0);
-    (a[0] - b[0]).hypot(a[1] - b[1]) > SAME_ROAD
+    a.ground_distance(*b) > SAME_ROAD
 }
 
-/// Do two polylines cross in the ground plane (a proper crossing of two of
-/// their segments)?
+/// Do two polylines cross in the ground plane (two of their segments meet)?
 fn polylines_cross(a: &[Point], b: &[Point]) -> bool {
+    let ground = |p: &Point| DVec2::new(p.0[0], p.0[1]);
     a.windows(2).any(|p| {
         b.windows(2)
-            .any(|q| segments_cross(&p[0], &p[1], &q[0], &q[1]))
+            .any(|q| segments_intersect(ground(&p[0]), ground(&p[1]), ground(&q[0]), ground(&q[1])))
     })
-}
-
-fn segments_cross(a: &Point, b: &Point, c: &Point, d: &Point) -> bool {
-    let side = |p: &Point, q: &Point, r: &Point| {
-        let (p, q, r) = (p.0, q.0, r.0);
-        (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-    };
-    side(a, b, c) * side(a, b, d) < 0.0 && side(c, d, a) * side(c, d, b) < 0.0
 }
 
 #[cfg(test)]
